@@ -1,0 +1,329 @@
+// The C ABI: the only place that knows public status codes and struct_size.
+// Every entry point validates its pointers, copies versioned structs through
+// min(struct_size, sizeof) and maps the core's Err onto ffseg_status.
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+
+#include "engine.h"
+#include "ffseg.h"
+
+using ffseg::Engine;
+using ffseg::Err;
+
+namespace {
+
+// Messages of calls made without an engine, per thread (static storage, no allocation).
+thread_local char t_msg[512];
+
+void set_tmsg(const char* s) { std::snprintf(t_msg, sizeof t_msg, "%s", s); }
+
+ffseg_status to_status(Err e) {
+  switch (e) {
+    case Err::ok: return FFSEG_OK;
+    case Err::converged: return FFSEG_CONVERGED;
+    case Err::invalid_argument: return FFSEG_ERR_INVALID_ARGUMENT;
+    case Err::null_pointer: return FFSEG_ERR_NULL_POINTER;
+    case Err::workspace_too_small: return FFSEG_ERR_WORKSPACE_TOO_SMALL;
+    case Err::workspace_misaligned: return FFSEG_ERR_WORKSPACE_MISALIGNED;
+    case Err::invalid_volume: return FFSEG_ERR_INVALID_VOLUME;
+    case Err::object_out_of_range: return FFSEG_ERR_OBJECT_OUT_OF_RANGE;
+    case Err::buffer_too_small: return FFSEG_ERR_BUFFER_TOO_SMALL;
+    case Err::misuse: return FFSEG_ERR_MISUSE;
+    case Err::numeric: return FFSEG_ERR_NUMERIC;
+    case Err::roi_too_large: return FFSEG_ERR_ROI_TOO_LARGE;
+    case Err::sphere_outside: return FFSEG_ERR_SPHERE_OUTSIDE;
+    case Err::config_too_large: return FFSEG_ERR_CONFIG_TOO_LARGE;
+    case Err::not_implemented: return FFSEG_ERR_NOT_IMPLEMENTED;
+  }
+  return FFSEG_ERR_INVALID_ARGUMENT;
+}
+
+// Copies a caller struct whose layout may be older (shorter) or newer (longer)
+// than ours over `out`, which holds the defaults; fields the caller lacks keep them.
+template <class T>
+bool read_versioned(const T* in, size_t min_size, T* out) {
+  const uint32_t sz = in->struct_size;
+  if (sz < min_size) return false;
+  std::memcpy(out, in, sz < sizeof(T) ? sz : sizeof(T));
+  out->struct_size = sizeof(T);
+  return true;
+}
+
+Engine* impl(ffseg_engine* e) { return reinterpret_cast<Engine*>(e); }
+const Engine* impl(const ffseg_engine* e) { return reinterpret_cast<const Engine*>(e); }
+
+bool live(const ffseg_engine* e) { return e != nullptr && impl(e)->magic() == Engine::kMagic; }
+
+ffseg_status engine_fail(ffseg_engine* e, Err r) {
+  (void)e;
+  return to_status(r);
+}
+
+// Converts the public config; returns an error status or OK.
+ffseg_status convert_config(const ffseg_config* c, ffseg::Config* out, char* msg, size_t n) {
+  if (c == nullptr) {
+    std::snprintf(msg, n, "config is NULL");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  ffseg_config full;
+  ffseg_config_init_default(&full);
+  if (!read_versioned(c, sizeof(ffseg_config), &full)) {
+    std::snprintf(msg, n, "config.struct_size = %u is smaller than %zu", c->struct_size, sizeof(ffseg_config));
+    return FFSEG_ERR_STRUCT_SIZE;
+  }
+  if (full.reserved0 != 0) {
+    std::snprintf(msg, n, "config.reserved0 must be 0");
+    return FFSEG_ERR_INVALID_ARGUMENT;
+  }
+  out->max_objects = full.max_objects;
+  out->mesh_resolution = full.mesh_resolution;
+  out->max_roi_voxels = full.max_roi_voxels;
+  return to_status(ffseg::check_config(*out, msg, n));
+}
+
+}  // namespace
+
+struct ffseg_engine {};  // opaque: the pointer is the ffseg::Engine in the workspace
+
+extern "C" {
+
+FFSEG_API uint32_t ffseg_version_number(void) { return FFSEG_VERSION_NUMBER; }
+
+FFSEG_API const char* ffseg_status_string(ffseg_status s) {
+  switch (s) {
+    case FFSEG_OK: return "ok";
+    case FFSEG_CONVERGED: return "converged";
+    case FFSEG_ERR_INVALID_ARGUMENT: return "invalid argument";
+    case FFSEG_ERR_NULL_POINTER: return "null pointer";
+    case FFSEG_ERR_WORKSPACE_TOO_SMALL: return "workspace too small";
+    case FFSEG_ERR_WORKSPACE_MISALIGNED: return "workspace not 64-byte aligned";
+    case FFSEG_ERR_INVALID_VOLUME: return "invalid volume";
+    case FFSEG_ERR_OBJECT_OUT_OF_RANGE: return "object index out of range";
+    case FFSEG_ERR_BUFFER_TOO_SMALL: return "buffer too small";
+    case FFSEG_ERR_MISUSE: return "call made in the wrong order";
+    case FFSEG_ERR_NUMERIC: return "numeric failure";
+    case FFSEG_ERR_ROI_TOO_LARGE: return "region of interest exceeds max_roi_voxels";
+    case FFSEG_ERR_SPHERE_OUTSIDE: return "sphere does not meet the volume";
+    case FFSEG_ERR_STRUCT_SIZE: return "struct_size too small";
+    case FFSEG_ERR_CONFIG_TOO_LARGE: return "configuration too large";
+    case FFSEG_ERR_NOT_IMPLEMENTED: return "not implemented";
+    default: return "unknown status";
+  }
+}
+
+FFSEG_API const char* ffseg_last_error(const ffseg_engine* e) {
+  if (e == nullptr) return t_msg;
+  if (!live(e)) return "not a live ffseg engine";
+  return impl(e)->message();
+}
+
+FFSEG_API void ffseg_config_init_default(ffseg_config* c) {
+  if (c == nullptr) return;
+  const ffseg::Config d;
+  std::memset(c, 0, sizeof *c);
+  c->struct_size = sizeof(ffseg_config);
+  c->max_objects = d.max_objects;
+  c->mesh_resolution = d.mesh_resolution;
+  c->max_roi_voxels = d.max_roi_voxels;
+}
+
+FFSEG_API ffseg_status ffseg_workspace_size(const ffseg_config* c, size_t* bytes) {
+  t_msg[0] = '\0';
+  if (bytes == nullptr) {
+    set_tmsg("workspace_size: bytes is NULL");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  *bytes = 0;
+  ffseg::Config cfg;
+  const ffseg_status st = convert_config(c, &cfg, t_msg, sizeof t_msg);
+  if (st != FFSEG_OK) return st;
+  const size_t n = Engine::workspace_bytes(cfg);
+  if (n == 0) {
+    set_tmsg("workspace_size: the configuration needs more memory than size_t can address");
+    return FFSEG_ERR_CONFIG_TOO_LARGE;
+  }
+  *bytes = n;
+  return FFSEG_OK;
+}
+
+FFSEG_API ffseg_status ffseg_create(const ffseg_config* c, void* workspace, size_t bytes,
+                                    ffseg_engine** out) {
+  t_msg[0] = '\0';
+  if (out == nullptr) {
+    set_tmsg("create: out is NULL");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  *out = nullptr;
+  ffseg::Config cfg;
+  const ffseg_status st = convert_config(c, &cfg, t_msg, sizeof t_msg);
+  if (st != FFSEG_OK) return st;
+  if (workspace == nullptr) {
+    set_tmsg("create: workspace is NULL");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  if (reinterpret_cast<uintptr_t>(workspace) % ffseg::kAlign != 0) {
+    set_tmsg("create: workspace must be 64-byte aligned");
+    return FFSEG_ERR_WORKSPACE_MISALIGNED;
+  }
+  const size_t need = Engine::workspace_bytes(cfg);
+  if (need == 0) {
+    set_tmsg("create: the configuration needs more memory than size_t can address");
+    return FFSEG_ERR_CONFIG_TOO_LARGE;
+  }
+  if (bytes < need) {
+    std::snprintf(t_msg, sizeof t_msg, "create: workspace has %zu bytes, needs %zu", bytes, need);
+    return FFSEG_ERR_WORKSPACE_TOO_SMALL;
+  }
+  Engine* e = Engine::create(cfg, workspace, bytes);
+  if (e == nullptr) {
+    std::snprintf(t_msg, sizeof t_msg, "create: workspace has %zu bytes, needs %zu", bytes, need);
+    return FFSEG_ERR_WORKSPACE_TOO_SMALL;
+  }
+  *out = reinterpret_cast<ffseg_engine*>(e);
+  return FFSEG_OK;
+}
+
+FFSEG_API void ffseg_destroy(ffseg_engine* e) {
+  if (live(e)) impl(e)->retire();
+}
+
+FFSEG_API void ffseg_params_init_default(ffseg_params* p) {
+  if (p == nullptr) return;
+  const ffseg::Params d;
+  std::memset(p, 0, sizeof *p);
+  p->struct_size = sizeof(ffseg_params);
+  p->target_mode = uint32_t(d.target_mode);
+  p->lambda_laplacian = d.lambda_laplacian;
+  p->lambda_position = d.lambda_position;
+  p->lambda_uniform = d.lambda_uniform;
+  p->step_size = d.step_size;
+  p->flip_tau = d.flip_tau;
+  p->search_range_mm = d.search_range_mm;
+  p->search_step_mm = d.search_step_mm;
+  p->convergence_mm = d.convergence_mm;
+  p->diffusion_iterations = d.diffusion_iterations;
+  p->consecutive_background = d.consecutive_background;
+}
+
+#define FFSEG_REQUIRE_ENGINE(e)                                   \
+  do {                                                            \
+    if ((e) == nullptr) return FFSEG_ERR_NULL_POINTER;            \
+    if (!live(e)) return FFSEG_ERR_MISUSE;                        \
+  } while (0)
+
+FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p) {
+  FFSEG_REQUIRE_ENGINE(e);
+  Engine* en = impl(e);
+  en->clear_message();
+  if (p == nullptr) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "set_params: params is NULL");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  ffseg_params full;
+  ffseg_params_init_default(&full);
+  if (!read_versioned(p, sizeof(ffseg_params), &full)) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "params.struct_size = %u is smaller than %zu",
+                  p->struct_size, sizeof(ffseg_params));
+    return FFSEG_ERR_STRUCT_SIZE;
+  }
+  ffseg::Params q;
+  q.target_mode = ffseg::TargetMode(full.target_mode);
+  q.lambda_laplacian = full.lambda_laplacian;
+  q.lambda_position = full.lambda_position;
+  q.lambda_uniform = full.lambda_uniform;
+  q.step_size = full.step_size;
+  q.flip_tau = full.flip_tau;
+  q.search_range_mm = full.search_range_mm;
+  q.search_step_mm = full.search_step_mm;
+  q.convergence_mm = full.convergence_mm;
+  q.diffusion_iterations = full.diffusion_iterations;
+  q.consecutive_background = full.consecutive_background;
+  return to_status(en->set_params(q));
+}
+
+FFSEG_API ffseg_status ffseg_set_volume(ffseg_engine* e, const ffseg_volume* v) {
+  FFSEG_REQUIRE_ENGINE(e);
+  Engine* en = impl(e);
+  en->clear_message();
+  if (v == nullptr) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "set_volume: volume is NULL");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  ffseg_volume full;
+  std::memset(&full, 0, sizeof full);
+  if (!read_versioned(v, sizeof(ffseg_volume), &full)) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "volume.struct_size = %u is smaller than %zu",
+                  v->struct_size, sizeof(ffseg_volume));
+    return FFSEG_ERR_STRUCT_SIZE;
+  }
+  ffseg::VolumeDesc d;
+  d.type = full.voxel_type;
+  d.data = full.data;
+  d.data_bytes = full.data_bytes;
+  d.offset = full.offset;
+  for (int a = 0; a < 3; ++a) {
+    d.dims[a] = full.dims[a];
+    d.strides[a] = full.strides[a];
+  }
+  for (int q = 0; q < 16; ++q) d.index_to_world[q] = full.index_to_world[q];
+  d.slope = full.rescale_slope;
+  d.intercept = full.rescale_intercept;
+  return to_status(en->set_volume(d));
+}
+
+FFSEG_API ffseg_status ffseg_sample(const ffseg_engine* e, const double point_mm[3], uint32_t mode,
+                                    double* value) {
+  if (e == nullptr) return FFSEG_ERR_NULL_POINTER;
+  if (!live(e)) return FFSEG_ERR_MISUSE;
+  if (point_mm == nullptr || value == nullptr) return FFSEG_ERR_NULL_POINTER;
+  return to_status(impl(e)->sample(point_mm, mode, value));
+}
+
+FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object, const double center_mm[3],
+                                         double radius_mm) {
+  FFSEG_REQUIRE_ENGINE(e);
+  Engine* en = impl(e);
+  en->clear_message();
+  if (center_mm == nullptr) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "init_sphere: center is NULL");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  return to_status(en->init_sphere(object, center_mm, radius_mm));
+}
+
+FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info) {
+  FFSEG_REQUIRE_ENGINE(e);
+  Engine* en = impl(e);
+  en->clear_message();
+  if (info != nullptr && info->struct_size < sizeof(uint32_t) * 4) return FFSEG_ERR_STRUCT_SIZE;
+  std::snprintf(en->message_buffer(), Engine::kMsgLen, "step: mesh deformation is not built yet");
+  return engine_fail(e, Err::not_implemented);
+}
+
+FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object, float* xyz,
+                                          size_t xyz_capacity, uint32_t* tris, size_t tri_capacity,
+                                          size_t* n_vertices, size_t* n_tris) {
+  FFSEG_REQUIRE_ENGINE(e);
+  Engine* en = const_cast<Engine*>(impl(e));
+  en->clear_message();
+  return to_status(en->extract_mesh(object, xyz, xyz_capacity, tris, tri_capacity, n_vertices, n_tris));
+}
+
+FFSEG_API ffseg_status ffseg_rasterize(const ffseg_engine* e, uint32_t object, uint8_t* mask,
+                                       const int64_t strides[3]) {
+  FFSEG_REQUIRE_ENGINE(e);
+  Engine* en = const_cast<Engine*>(impl(e));
+  en->clear_message();
+  if (mask == nullptr) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "rasterize: mask is NULL");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  if (!en->volume().valid()) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "rasterize: no volume set");
+    return FFSEG_ERR_MISUSE;
+  }
+  return to_status(en->rasterize(object, mask, strides));
+}
+
+}  // extern "C"

@@ -1,0 +1,283 @@
+/*
+ * ffseg.h - the public C ABI of ffseg, a fixed-memory engine that segments
+ * organs in 3D medical volumes by deforming a quadrilateral sphere mesh
+ * without ever letting it flip or self-intersect (Ding Feng, "3D Segmentation
+ * of Soft Tissues by Flipping-free Mesh Deformation", chapters 4-6).
+ *
+ * Rules this header keeps (see shared/API.md):
+ *  - plain C: <stdint.h>/<stddef.h> types only, no bool, no enums in structs or
+ *    signatures, no unions, bit-fields, variadics or inline functions;
+ *  - every struct crossing the boundary starts with uint32_t struct_size; fields
+ *    are only ever appended; the library reads min(struct_size, its own size),
+ *    and *_init_default() fills one completely;
+ *  - every call returns ffseg_status: 0 success, > 0 a non-error outcome,
+ *    < 0 an error; error numbers never change once released;
+ *  - nothing is ever allocated: the caller asks for the workspace size, hands
+ *    over one 64-byte aligned buffer and owns it; no exception, abort or print
+ *    crosses the boundary;
+ *  - threading: one engine is used by one thread at a time; distinct engines
+ *    may run in parallel on distinct workspaces;
+ *  - geometry is in millimetres in the caller's world frame, the frame of the
+ *    volume's 4x4 index-to-world affine (voxel centres). LPS or RAS does not
+ *    matter: outputs come back in the same frame.
+ *
+ * Typical use:
+ *     ffseg_config cfg;  ffseg_config_init_default(&cfg);  cfg.max_objects = 1;
+ *     size_t bytes;      ffseg_workspace_size(&cfg, &bytes);
+ *     void* ws = aligned_alloc(64, bytes);      (any 64-byte aligned memory)
+ *     ffseg_engine* e;   ffseg_create(&cfg, ws, bytes, &e);
+ *     ffseg_set_volume(e, &volume);
+ *     ffseg_init_sphere(e, 0, centre_mm, radius_mm);
+ *     while (ffseg_step(e, NULL) == FFSEG_OK) {}
+ *     ffseg_extract_mesh(e, 0, xyz, nv_cap, tris, nt_cap, &nv, &nt);
+ *     ffseg_destroy(e);  free(ws);
+ */
+#ifndef FFSEG_H
+#define FFSEG_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(_WIN32)
+#  if defined(FFSEG_BUILDING)
+#    define FFSEG_API __declspec(dllexport)
+#  else
+#    define FFSEG_API
+#  endif
+#elif defined(__GNUC__)
+#  define FFSEG_API __attribute__((visibility("default")))
+#else
+#  define FFSEG_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- Version ------------------------------------------------------------ */
+#define FFSEG_VERSION_MAJOR 0
+#define FFSEG_VERSION_MINOR 1
+#define FFSEG_VERSION_PATCH 0
+#define FFSEG_VERSION_NUMBER \
+  (FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH)
+
+/* The library's version, MAJOR*10000 + MINOR*100 + PATCH. Compare with
+ * FFSEG_VERSION_NUMBER to detect a header/library mismatch. Thread-safe. */
+FFSEG_API uint32_t ffseg_version_number(void);
+
+/* The engine: an opaque handle living inside the caller's workspace. */
+typedef struct ffseg_engine ffseg_engine;
+
+/* ---- Status codes ------------------------------------------------------- */
+typedef int32_t ffseg_status;
+
+#define FFSEG_OK 0
+/* ffseg_step: every object has converged (mean displacement below tolerance). */
+#define FFSEG_CONVERGED 1
+
+/* An argument is out of its documented range (the message names it). */
+#define FFSEG_ERR_INVALID_ARGUMENT (-1)
+/* A required pointer argument is NULL. */
+#define FFSEG_ERR_NULL_POINTER (-2)
+/* The workspace is smaller than ffseg_workspace_size() says (message: needed size). */
+#define FFSEG_ERR_WORKSPACE_TOO_SMALL (-3)
+/* The workspace is not 64-byte aligned. */
+#define FFSEG_ERR_WORKSPACE_MISALIGNED (-4)
+/* The volume descriptor is malformed (message: which field and why). */
+#define FFSEG_ERR_INVALID_VOLUME (-5)
+/* An object index is not below config.max_objects. */
+#define FFSEG_ERR_OBJECT_OUT_OF_RANGE (-6)
+/* An output buffer is too small; the needed counts are reported. */
+#define FFSEG_ERR_BUFFER_TOO_SMALL (-7)
+/* A call made in the wrong order (e.g. init_sphere before set_volume). */
+#define FFSEG_ERR_MISUSE (-8)
+/* A numeric failure (matrix not positive definite, non-finite values);
+ * the mesh is left as it was before the call. */
+#define FFSEG_ERR_NUMERIC (-9)
+/* A cropped region needs more voxels than config.max_roi_voxels (message: how many). */
+#define FFSEG_ERR_ROI_TOO_LARGE (-10)
+/* The sphere does not meet the volume's grid. */
+#define FFSEG_ERR_SPHERE_OUTSIDE (-11)
+/* A struct's struct_size is smaller than the oldest layout the library knows. */
+#define FFSEG_ERR_STRUCT_SIZE (-12)
+/* The configuration asks for more memory than size_t can express. */
+#define FFSEG_ERR_CONFIG_TOO_LARGE (-13)
+/* The requested feature is not available in this build. */
+#define FFSEG_ERR_NOT_IMPLEMENTED (-14)
+
+/* Static text for a status code ("unknown status" for unknown codes). Thread-safe. */
+FFSEG_API const char* ffseg_status_string(ffseg_status s);
+
+/* The engine's last detailed message (stored in its workspace, valid until the
+ * next call on that engine). With e == NULL: the last message of a call made
+ * without an engine (ffseg_workspace_size, a failed ffseg_create) on the
+ * calling thread. Never NULL; "" when there is nothing to say. */
+FFSEG_API const char* ffseg_last_error(const ffseg_engine* e);
+
+/* ---- Sizing and creation ------------------------------------------------ */
+
+typedef struct ffseg_config {
+  uint32_t struct_size;     /* sizeof(ffseg_config) */
+  uint32_t max_objects;     /* objects segmented at once; 1..64 (default 1) */
+  uint32_t mesh_resolution; /* n: each mesh has 6 n^2 vertices; 2..1024 (default 33) */
+  uint32_t reserved0;       /* must be 0 */
+  int64_t max_roi_voxels;   /* largest cropped region one object may use for smoothing
+                               and fast marching, in voxels; 0..2^40 (default 2^22) */
+} ffseg_config;
+
+/* Fills *c with the defaults above and struct_size = sizeof(ffseg_config). */
+FFSEG_API void ffseg_config_init_default(ffseg_config* c);
+
+/* Exact workspace size in bytes for config *c: ffseg_create succeeds with this
+ * many bytes and fails with one byte fewer. Errors: NULL_POINTER,
+ * STRUCT_SIZE, INVALID_ARGUMENT (field named in ffseg_last_error(NULL)),
+ * CONFIG_TOO_LARGE. */
+FFSEG_API ffseg_status ffseg_workspace_size(const ffseg_config* c, size_t* bytes);
+
+/* Creates an engine inside workspace[0, bytes). The workspace must be 64-byte
+ * aligned and stay valid and untouched by the caller until ffseg_destroy; the
+ * engine never allocates. On failure *out is set to NULL and
+ * ffseg_last_error(NULL) explains (for WORKSPACE_TOO_SMALL it names the size). */
+FFSEG_API ffseg_status ffseg_create(const ffseg_config* c, void* workspace, size_t bytes,
+                                    ffseg_engine** out);
+
+/* Ends the engine's use of its workspace. NULL is fine. Frees nothing: the
+ * caller owns the workspace and may reuse or free it afterwards. */
+FFSEG_API void ffseg_destroy(ffseg_engine* e);
+
+/* ---- Algorithm parameters ------------------------------------------------ */
+/* How ffseg_step finds targets for the vertices. */
+#define FFSEG_TARGET_BINARY 0    /* non-zero voxels are the object (thesis ch. 4) */
+#define FFSEG_TARGET_INTENSITY 1 /* grey levels, intensity model (thesis ch. 5) */
+
+typedef struct ffseg_params {
+  uint32_t struct_size;         /* sizeof(ffseg_params) */
+  uint32_t target_mode;         /* FFSEG_TARGET_*; default FFSEG_TARGET_BINARY */
+  double lambda_laplacian;      /* lambda_L, Laplacian preservation; (0, 1e6]; default 1 */
+  double lambda_position;       /* lambda_p, positional constraints; (0, 1e6]; default 1 */
+  double lambda_uniform;        /* lambda_u, uniform edge length on contours; [0, 1e6]; default 0.25 */
+  double step_size;             /* alpha: p_i = u_i + alpha (v_i - u_i); (0, 1]; default 0.5 */
+  double flip_tau;              /* tau of eq. 4.2.1, edge flips when cos <= tau; [0, 1); default 0.2 */
+  double search_range_mm;       /* correspondence search along the normal, mm; (0, 1e4]; default 20 */
+  double search_step_mm;        /* sample spacing along the normal, mm; 0 = half the smallest
+                                   voxel spacing; [0, 100]; default 0 */
+  double convergence_mm;        /* converged when every object's mean displacement is below;
+                                   [0, 100]; default 0.05 */
+  uint32_t diffusion_iterations; /* rounds of displacement averaging (eq. 4.2.2); 0..100; default 3 */
+  uint32_t consecutive_background; /* N of thesis 5.3; 1..64; default 3 */
+} ffseg_params;
+
+/* Fills *p with the defaults above and struct_size = sizeof(ffseg_params). */
+FFSEG_API void ffseg_params_init_default(ffseg_params* p);
+
+/* Validates every field; on an error nothing changes, the previous parameters
+ * stay, and the message names the field. Errors: NULL_POINTER, STRUCT_SIZE,
+ * INVALID_ARGUMENT. */
+FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p);
+
+/* ---- The volume ------------------------------------------------------------ */
+#define FFSEG_U8 1
+#define FFSEG_I16 2
+#define FFSEG_U16 3
+#define FFSEG_I32 4
+#define FFSEG_F32 5
+#define FFSEG_F64 6
+
+typedef struct ffseg_volume {
+  uint32_t struct_size;   /* sizeof(ffseg_volume) */
+  uint32_t voxel_type;    /* FFSEG_U8 ... FFSEG_F64, native byte order */
+  const void* data;       /* start of the readable buffer; never written */
+  uint64_t data_bytes;    /* its length in bytes */
+  int64_t offset;         /* bytes from data to voxel (0,0,0) */
+  int64_t dims[3];        /* voxels along i, j, k; each >= 1 */
+  int64_t strides[3];     /* bytes between neighbours along i, j, k; may be negative
+                             or padded; voxels must not overlap */
+  double index_to_world[16]; /* row-major 4x4: voxel centre (i,j,k,1) -> mm; last row 0 0 0 1 */
+  double rescale_slope;     /* value = slope * stored + intercept; finite, non-zero */
+  double rescale_intercept; /* finite */
+} ffseg_volume;
+
+/* Voxel (i,j,k) is read at data + offset + i*strides[0] + j*strides[1] +
+ * k*strides[2]. Everything is checked: dims < 1, dimension products that
+ * overflow 64 bits, NULL data, any voxel byte outside [data, data + data_bytes),
+ * overlapping voxels, an unknown type, a singular or non-finite affine or a
+ * last row other than 0 0 0 1, a zero or non-finite slope, a non-finite
+ * intercept: each is FFSEG_ERR_INVALID_VOLUME with a message. The buffer is
+ * borrowed until the next set_volume or destroy and never written. Setting a
+ * volume keeps the objects' meshes. */
+FFSEG_API ffseg_status ffseg_set_volume(ffseg_engine* e, const ffseg_volume* v);
+
+/* Intensity (rescaled) at a point in world mm. mode: 0 nearest voxel,
+ * 1 trilinear. Voxels beyond the grid read as 0. Errors: MISUSE (no volume),
+ * NULL_POINTER, INVALID_ARGUMENT (mode, non-finite point). */
+#define FFSEG_SAMPLE_NEAREST 0
+#define FFSEG_SAMPLE_LINEAR 1
+FFSEG_API ffseg_status ffseg_sample(const ffseg_engine* e, const double point_mm[3],
+                                    uint32_t mode, double* value);
+
+/* ---- Objects ---------------------------------------------------------------- */
+/* Places object `object`'s cube-sphere mesh on a sphere (centre and radius in
+ * world mm), replacing any previous mesh of that object. Errors: MISUSE (no
+ * volume yet), OBJECT_OUT_OF_RANGE, INVALID_ARGUMENT (radius <= 0 or
+ * non-finite values), SPHERE_OUTSIDE (the ball does not meet the grid). */
+FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object,
+                                         const double center_mm[3], double radius_mm);
+
+/* Per-stage timings reported by ffseg_step, in microseconds. */
+#define FFSEG_STAGE_SEARCH 0
+#define FFSEG_STAGE_FLIPS 1
+#define FFSEG_STAGE_DIFFUSION 2
+#define FFSEG_STAGE_INTERSECTION 3
+#define FFSEG_STAGE_ASSEMBLY 4
+#define FFSEG_STAGE_FACTOR 5
+#define FFSEG_STAGE_SOLVE 6
+#define FFSEG_STAGE_FEATURES 7
+#define FFSEG_STAGE_COUNT 8
+/* Per-object figures are reported for the first FFSEG_REPORT_OBJECTS objects. */
+#define FFSEG_REPORT_OBJECTS 16
+
+typedef struct ffseg_step_info {
+  uint32_t struct_size;   /* sizeof(ffseg_step_info) */
+  uint32_t step_index;    /* steps taken so far, this one included */
+  uint32_t active_objects;
+  uint32_t reserved0;
+  double mean_displacement_mm[FFSEG_REPORT_OBJECTS];
+  uint32_t vertices_with_target[FFSEG_REPORT_OBJECTS];
+  uint32_t flips_avoided[FFSEG_REPORT_OBJECTS];
+  uint32_t intersections_avoided[FFSEG_REPORT_OBJECTS];
+  uint32_t border_vertices[FFSEG_REPORT_OBJECTS];
+  uint64_t stage_us[FFSEG_STAGE_COUNT];
+} ffseg_step_info;
+
+/* One deformation step of every placed object (thesis Algorithm 1). Returns
+ * FFSEG_OK, or FFSEG_CONVERGED once every object's mean displacement is below
+ * params.convergence_mm. info may be NULL; otherwise info->struct_size must be
+ * set. Errors: MISUSE (no volume or no object), NUMERIC (mesh unchanged),
+ * ROI_TOO_LARGE, NOT_IMPLEMENTED (a target mode this build lacks). */
+FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info);
+
+/* Copies object `object`'s mesh out: xyz gets 3 floats (mm) per vertex, tris
+ * 3 vertex indices per triangle, counter-clockwise seen from outside (each quad
+ * split in two; a closed, consistently oriented 2-manifold). With xyz and tris
+ * both NULL only the counts are written. A buffer smaller than the counts:
+ * BUFFER_TOO_SMALL, with the counts written. Capacities are in vertices and
+ * triangles. Errors also: OBJECT_OUT_OF_RANGE, MISUSE (object not placed). */
+FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object, float* xyz,
+                                          size_t xyz_capacity, uint32_t* tris,
+                                          size_t tri_capacity, size_t* n_vertices,
+                                          size_t* n_tris);
+
+/* Writes 1 into mask for every voxel of the volume grid whose centre lies
+ * inside object `object`'s closed mesh and 0 for every other voxel. Voxel
+ * (i,j,k) is mask[i*strides[0] + j*strides[1] + k*strides[2]] (bytes, may be
+ * negative); strides == NULL means contiguous (1, dims[0], dims[0]*dims[1]).
+ * The caller guarantees the buffer covers the grid. Errors: MISUSE,
+ * OBJECT_OUT_OF_RANGE, NULL_POINTER. */
+FFSEG_API ffseg_status ffseg_rasterize(const ffseg_engine* e, uint32_t object, uint8_t* mask,
+                                       const int64_t strides[3]);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* FFSEG_H */

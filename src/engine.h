@@ -1,0 +1,117 @@
+// The engine: everything it owns lives in the caller's workspace, laid out by
+// one function that runs twice (measure, then carve), so the size query is exact.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "arena.h"
+#include "cubesphere.h"
+#include "volume.h"
+
+namespace ffseg {
+
+enum class Err : int {
+  ok = 0,
+  converged,
+  invalid_argument,
+  null_pointer,
+  workspace_too_small,
+  workspace_misaligned,
+  invalid_volume,
+  object_out_of_range,
+  buffer_too_small,
+  misuse,
+  numeric,
+  roi_too_large,
+  sphere_outside,
+  config_too_large,
+  not_implemented,
+};
+
+struct Config {
+  uint32_t max_objects = 1;
+  uint32_t mesh_resolution = 33;
+  int64_t max_roi_voxels = int64_t(1) << 22;
+};
+
+enum class TargetMode : uint32_t { binary = 0, intensity = 1 };
+
+struct Params {
+  TargetMode target_mode = TargetMode::binary;
+  double lambda_laplacian = 1.0;
+  double lambda_position = 1.0;
+  double lambda_uniform = 0.25;
+  double step_size = 0.5;
+  double flip_tau = 0.2;
+  double search_range_mm = 20.0;
+  double search_step_mm = 0.0;
+  double convergence_mm = 0.05;
+  uint32_t diffusion_iterations = 3;
+  uint32_t consecutive_background = 3;
+};
+
+// Checks a configuration; on failure writes the offending field into msg.
+Err check_config(const Config& c, char* msg, size_t msg_len);
+// Checks parameters; on failure names the field.
+Err check_params(const Params& p, char* msg, size_t msg_len);
+
+struct Object {
+  bool placed = false;
+  double center[3] = {0, 0, 0};
+  double radius = 0;
+  double* x = nullptr;  // 3 * nv current vertex positions, mm
+};
+
+struct StepReport {
+  uint32_t step_index = 0;
+  uint32_t active_objects = 0;
+};
+
+class Engine {
+ public:
+  static constexpr size_t kMsgLen = 512;
+
+  // Exact workspace bytes for c (c must have passed check_config).
+  static size_t workspace_bytes(const Config& c);
+  // Builds an engine at the start of the workspace (64-byte aligned, at least
+  // workspace_bytes(c) long).
+  static Engine* create(const Config& c, void* ws, size_t bytes);
+
+  Err set_params(const Params& p);
+  const Params& params() const { return params_; }
+  Err set_volume(const VolumeDesc& d);
+  Err sample(const double w[3], uint32_t mode, double* value) const;
+  Err init_sphere(uint32_t object, const double c[3], double r);
+  Err extract_mesh(uint32_t object, float* xyz, size_t xyz_cap, uint32_t* tris, size_t tri_cap,
+                   size_t* nv, size_t* nt) const;
+  Err rasterize(uint32_t object, uint8_t* mask, const int64_t strides[3]) const;
+
+  const char* message() const { return msg_; }
+  void clear_message() { msg_[0] = '\0'; }
+  char* message_buffer() { return msg_; }
+
+  const Config& config() const { return cfg_; }
+  const CubeSphere& mesh() const { return mesh_; }
+  const VolumeView& volume() const { return vol_; }
+  const Object& object(uint32_t i) const { return objects_[i]; }
+  uint32_t magic() const { return magic_; }
+  void retire() { magic_ = 0; }
+
+  static constexpr uint32_t kMagic = 0xFF5E6001u;
+
+ private:
+  Engine() = default;
+  void layout(Arena& a);
+  Err check_object(uint32_t object, bool must_be_placed) const;
+
+  uint32_t magic_ = 0;
+  Config cfg_;
+  Params params_;
+  CubeSphere mesh_;
+  VolumeView vol_;
+  Object* objects_ = nullptr;
+  uint32_t steps_ = 0;
+  char msg_[kMsgLen] = {};
+};
+
+}  // namespace ffseg

@@ -1,0 +1,102 @@
+// Parity scan conversion along the i axis: every triangle toggles the first
+// voxel of each (j,k) row past the point where the row's ray crosses it, then
+// a running XOR along each row turns toggles into inside/outside. The caller's
+// mask is its own scratch, so no memory is needed.
+#include "rasterize.h"
+
+#include <cmath>
+
+namespace ffseg {
+
+void triangulate(const CubeSphere& m, uint32_t* tris) {
+  size_t t = 0;
+  for (uint32_t f = 0; f < m.nfaces; ++f) {
+    uint32_t tri[6];
+    const int c = face_triangles(m, f, tri);
+    for (int i = 0; i < 3 * c; ++i) tris[t++] = tri[i];
+  }
+}
+
+namespace {
+
+// Rays run through (j + dj, k + dk): a tiny irrational-looking offset keeps them
+// off mesh vertices and edges placed exactly on grid lines by symmetry.
+constexpr double kDj = 1.17e-7, kDk = 2.31e-7;
+
+// Twice the signed area of (a, b, p) in the (j, k) plane, evaluated with the
+// lower vertex index first so that the two triangles sharing an edge see exactly
+// opposite values: a ray is then counted by exactly one of them.
+inline double edge_fn(const double* pa, uint32_t ia, const double* pb, uint32_t ib, double pj, double pk) {
+  if (ia > ib) return -edge_fn(pb, ib, pa, ia, pj, pk);
+  return (pb[1] - pa[1]) * (pk - pa[2]) - (pb[2] - pa[2]) * (pj - pa[1]);
+}
+
+}  // namespace
+
+void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol, uint8_t* mask,
+                    const int64_t strides_in[3]) {
+  const int64_t* D = vol.dims();
+  int64_t s[3];
+  if (strides_in) {
+    s[0] = strides_in[0]; s[1] = strides_in[1]; s[2] = strides_in[2];
+  } else {
+    s[0] = 1; s[1] = D[0]; s[2] = D[0] * D[1];
+  }
+  for (int64_t k = 0; k < D[2]; ++k)
+    for (int64_t j = 0; j < D[1]; ++j)
+      for (int64_t i = 0; i < D[0]; ++i) mask[i * s[0] + j * s[1] + k * s[2]] = 0;
+
+  int64_t jlo = D[1], jhi = -1, klo = D[2], khi = -1;
+  for (uint32_t f = 0; f < m.nfaces; ++f) {
+    uint32_t tri[6];
+    const int nt = face_triangles(m, f, tri);
+    for (int t = 0; t < nt; ++t) {
+      double p[3][3];
+      const uint32_t id[3] = {tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]};
+      for (int c = 0; c < 3; ++c) vol.world_to_index(x + 3 * size_t(id[c]), p[c]);
+      double mnj = p[0][1], mxj = p[0][1], mnk = p[0][2], mxk = p[0][2];
+      for (int c = 1; c < 3; ++c) {
+        mnj = std::fmin(mnj, p[c][1]); mxj = std::fmax(mxj, p[c][1]);
+        mnk = std::fmin(mnk, p[c][2]); mxk = std::fmax(mxk, p[c][2]);
+      }
+      int64_t j0 = int64_t(std::ceil(mnj - kDj)), j1 = int64_t(std::floor(mxj - kDj));
+      int64_t k0 = int64_t(std::ceil(mnk - kDk)), k1 = int64_t(std::floor(mxk - kDk));
+      if (j0 < 0) j0 = 0;
+      if (k0 < 0) k0 = 0;
+      if (j1 > D[1] - 1) j1 = D[1] - 1;
+      if (k1 > D[2] - 1) k1 = D[2] - 1;
+      for (int64_t k = k0; k <= k1; ++k)
+        for (int64_t j = j0; j <= j1; ++j) {
+          const double pj = double(j) + kDj, pk = double(k) + kDk;
+          const double w0 = edge_fn(p[1], id[1], p[2], id[2], pj, pk);
+          const double w1 = edge_fn(p[2], id[2], p[0], id[0], pj, pk);
+          const double w2 = edge_fn(p[0], id[0], p[1], id[1], pj, pk);
+          const bool inside = (w0 > 0 && w1 > 0 && w2 > 0) || (w0 < 0 && w1 < 0 && w2 < 0);
+          if (!inside) continue;
+          const double sum = w0 + w1 + w2;
+          const double xi = (w0 * p[0][0] + w1 * p[1][0] + w2 * p[2][0]) / sum;
+          // Voxel centres strictly past the crossing change state.
+          double first = std::floor(xi) + 1.0;
+          if (first < 0) first = 0;
+          if (!(first < double(D[0]))) continue;
+          uint8_t& cell = mask[int64_t(first) * s[0] + j * s[1] + k * s[2]];
+          cell ^= 1;
+          if (j < jlo) jlo = j;
+          if (j > jhi) jhi = j;
+          if (k < klo) klo = k;
+          if (k > khi) khi = k;
+        }
+    }
+  }
+  for (int64_t k = klo; k <= khi; ++k)
+    for (int64_t j = jlo; j <= jhi; ++j) {
+      uint8_t inside = 0;
+      for (int64_t i = 0; i < D[0]; ++i) {
+        uint8_t& cell = mask[i * s[0] + j * s[1] + k * s[2]];
+        inside ^= cell;
+        cell = inside;
+      }
+    }
+}
+
+}  // namespace ffseg

@@ -1,0 +1,79 @@
+// A validated, read-only view of the caller's voxel buffer: any of six types,
+// any byte strides, a 4x4 index-to-world affine (voxel centres, mm) and a
+// rescale slope/intercept. Nothing outside [data, data + bytes) is ever read.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+namespace ffseg {
+
+enum class VoxelType : uint32_t { U8 = 1, I16 = 2, U16 = 3, I32 = 4, F32 = 5, F64 = 6 };
+
+struct VolumeDesc {  // the caller's description, already copied out of the C struct
+  uint32_t type;
+  const void* data;
+  uint64_t data_bytes;
+  int64_t offset;
+  int64_t dims[3];
+  int64_t strides[3];
+  double index_to_world[16];
+  double slope, intercept;
+};
+
+class VolumeView {
+ public:
+  // Validates d; on failure writes a message and returns false (view unchanged).
+  bool assign(const VolumeDesc& d, char* msg, size_t msg_len);
+
+  bool valid() const { return origin_ != nullptr; }
+  void reset() { origin_ = nullptr; }
+
+  const int64_t* dims() const { return dims_; }
+  int64_t voxel_count() const { return dims_[0] * dims_[1] * dims_[2]; }
+  VoxelType type() const { return type_; }
+
+  // Rescaled value of voxel (i,j,k); the indices must be inside the grid.
+  double at(int64_t i, int64_t j, int64_t k) const {
+    const unsigned char* p = origin_ + i * strides_[0] + j * strides_[1] + k * strides_[2];
+    return slope_ * raw(p) + intercept_;
+  }
+  // Rescaled value, or `outside` beyond the grid.
+  double at_or(int64_t i, int64_t j, int64_t k, double outside) const {
+    if (i < 0 || j < 0 || k < 0 || i >= dims_[0] || j >= dims_[1] || k >= dims_[2]) return outside;
+    return at(i, j, k);
+  }
+
+  void world_to_index(const double w[3], double ijk[3]) const;
+  void index_to_world(const double ijk[3], double w[3]) const;
+  // Direction in index space for a world-space direction (no translation).
+  void world_dir_to_index(const double w[3], double ijk[3]) const;
+
+  double sample_nearest(const double w[3], double outside = 0.0) const;
+  double sample_linear(const double w[3], double outside = 0.0) const;
+
+  // Length in mm of one voxel step along each index axis.
+  const double* spacing() const { return spacing_; }
+  double min_spacing() const;
+  const double* affine() const { return A_; }      // 3x4 row-major
+  const double* inverse() const { return Ainv_; }  // 3x4 row-major
+
+  // True when the ball (centre c, radius r in mm) meets the grid's box
+  // [-0.5, dims - 0.5] in index space.
+  bool ball_meets_grid(const double c[3], double r) const;
+
+ private:
+  double raw(const unsigned char* p) const;
+
+  VoxelType type_ = VoxelType::U8;
+  const unsigned char* origin_ = nullptr;  // address of voxel (0,0,0)
+  int64_t dims_[3] = {0, 0, 0};
+  int64_t strides_[3] = {0, 0, 0};
+  double A_[12] = {};
+  double Ainv_[12] = {};
+  double spacing_[3] = {0, 0, 0};
+  double slope_ = 1, intercept_ = 0;
+};
+
+size_t voxel_type_size(uint32_t type);  // 0 for an unknown type
+
+}  // namespace ffseg

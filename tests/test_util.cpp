@@ -1,0 +1,9 @@
+#include "test_util.h"
+
+#include "rasterize.h"
+
+namespace ffseg_test {
+
+void triangles_of(const ffseg::CubeSphere& m, uint32_t* tris) { ffseg::triangulate(m, tris); }
+
+}  // namespace ffseg_test

@@ -1,0 +1,91 @@
+// Small helpers shared by the tests: an engine in an owned workspace, volume
+// descriptors, mesh extraction into vectors.
+#pragma once
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <vector>
+
+#include "cubesphere.h"
+#include "ffseg.h"
+
+namespace ffseg_test {
+
+struct EngineBox {
+  void* ws = nullptr;
+  size_t bytes = 0;
+  ffseg_engine* e = nullptr;
+  EngineBox(uint32_t objects, uint32_t n, int64_t max_roi = int64_t(1) << 22) {
+    ffseg_config c;
+    ffseg_config_init_default(&c);
+    c.max_objects = objects;
+    c.mesh_resolution = n;
+    c.max_roi_voxels = max_roi;
+    if (ffseg_workspace_size(&c, &bytes) != FFSEG_OK) return;
+    ws = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
+    if (ffseg_create(&c, ws, bytes, &e) != FFSEG_OK) e = nullptr;
+  }
+  ~EngineBox() {
+    ffseg_destroy(e);
+    std::free(ws);
+  }
+  EngineBox(const EngineBox&) = delete;
+  EngineBox& operator=(const EngineBox&) = delete;
+};
+
+inline size_t type_size(uint32_t t) {
+  switch (t) {
+    case FFSEG_U8: return 1;
+    case FFSEG_I16: case FFSEG_U16: return 2;
+    case FFSEG_I32: case FFSEG_F32: return 4;
+    default: return 8;
+  }
+}
+
+// A contiguous volume (i fastest) over data.
+inline ffseg_volume make_volume(const void* data, uint32_t type, const int64_t dims[3], const double A[16]) {
+  ffseg_volume v;
+  std::memset(&v, 0, sizeof v);
+  v.struct_size = sizeof v;
+  v.voxel_type = type;
+  v.data = data;
+  const int64_t es = int64_t(type_size(type));
+  v.data_bytes = uint64_t(dims[0] * dims[1] * dims[2] * es);
+  for (int a = 0; a < 3; ++a) v.dims[a] = dims[a];
+  v.strides[0] = es;
+  v.strides[1] = es * dims[0];
+  v.strides[2] = es * dims[0] * dims[1];
+  std::memcpy(v.index_to_world, A, sizeof v.index_to_world);
+  v.rescale_slope = 1;
+  return v;
+}
+
+inline bool extract(ffseg_engine* e, uint32_t object, std::vector<float>* xyz, std::vector<uint32_t>* tris) {
+  size_t nv = 0, nt = 0;
+  if (ffseg_extract_mesh(e, object, nullptr, 0, nullptr, 0, &nv, &nt) != FFSEG_OK) return false;
+  xyz->resize(3 * nv);
+  tris->resize(3 * nt);
+  return ffseg_extract_mesh(e, object, xyz->data(), nv, tris->data(), nt, &nv, &nt) == FFSEG_OK;
+}
+
+void triangles_of(const ffseg::CubeSphere& m, uint32_t* tris);
+
+template <class P>
+double signed_volume(const P* xyz, const std::vector<uint32_t>& tris) {
+  double v = 0;
+  for (size_t t = 0; t < tris.size() / 3; ++t) {
+    const P* a = xyz + 3 * tris[3 * t];
+    const P* b = xyz + 3 * tris[3 * t + 1];
+    const P* c = xyz + 3 * tris[3 * t + 2];
+    v += double(a[0]) * (double(b[1]) * c[2] - double(b[2]) * c[1]) -
+         double(a[1]) * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
+         double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0]);
+  }
+  return v / 6.0;
+}
+template <class P>
+double signed_volume(const std::vector<P>& xyz, const std::vector<uint32_t>& tris) {
+  return signed_volume(xyz.data(), tris);
+}
+
+}  // namespace ffseg_test
