@@ -55,11 +55,6 @@ const Engine* impl(const ffseg_engine* e) { return reinterpret_cast<const Engine
 
 bool live(const ffseg_engine* e) { return e != nullptr && impl(e)->magic() == Engine::kMagic; }
 
-ffseg_status engine_fail(ffseg_engine* e, Err r) {
-  (void)e;
-  return to_status(r);
-}
-
 // Converts the public config; returns an error status or OK.
 ffseg_status convert_config(const ffseg_config* c, ffseg::Config* out, char* msg, size_t n) {
   if (c == nullptr) {
@@ -296,9 +291,29 @@ FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info) {
   FFSEG_REQUIRE_ENGINE(e);
   Engine* en = impl(e);
   en->clear_message();
-  if (info != nullptr && info->struct_size < sizeof(uint32_t) * 4) return FFSEG_ERR_STRUCT_SIZE;
-  std::snprintf(en->message_buffer(), Engine::kMsgLen, "step: mesh deformation is not built yet");
-  return engine_fail(e, Err::not_implemented);
+  if (info != nullptr && info->struct_size < sizeof(ffseg_step_info)) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "step_info.struct_size = %u is smaller than %zu",
+                  info->struct_size, sizeof(ffseg_step_info));
+    return FFSEG_ERR_STRUCT_SIZE;
+  }
+  ffseg::StepReport r;
+  const Err st = en->step(&r);
+  if (info != nullptr && (st == Err::ok || st == Err::converged)) {
+    static_assert(ffseg::kReportObjects == FFSEG_REPORT_OBJECTS, "report sizes");
+    static_assert(ffseg::kStageCount == FFSEG_STAGE_COUNT, "stage counts");
+    info->step_index = r.step_index;
+    info->active_objects = r.active_objects;
+    info->reserved0 = 0;
+    for (uint32_t i = 0; i < FFSEG_REPORT_OBJECTS; ++i) {
+      info->mean_displacement_mm[i] = r.mean_displacement_mm[i];
+      info->vertices_with_target[i] = r.with_target[i];
+      info->flips_avoided[i] = r.flips_avoided[i];
+      info->intersections_avoided[i] = r.folds_avoided[i];
+      info->border_vertices[i] = r.border_vertices[i];
+    }
+    for (int s = 0; s < FFSEG_STAGE_COUNT; ++s) info->stage_us[s] = r.stage_us[s];
+  }
+  return to_status(st);
 }
 
 FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object, float* xyz,

@@ -1,9 +1,15 @@
 #include "engine.h"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <new>
 
+#include "correspondence.h"
+#include "diffusion.h"
+#include "flips.h"
+#include "laplacian_system.h"
+#include "normals.h"
 #include "rasterize.h"
 
 namespace ffseg {
@@ -53,8 +59,41 @@ Err check_params(const Params& p, char* msg, size_t n) {
   return Err::ok;
 }
 
+// Doubles reserved for the envelope factor: measured stored entries per row
+// are 5.06 n + 5 for n = 2..128 under RCM (tests/test_deform.cpp checks the
+// bound); a closed form keeps the size query exact without building the mesh.
+uint64_t solver_capacity(uint32_t n, uint32_t nv) {
+  const uint64_t npad = (uint64_t(nv) + 3) / 4 * 4;
+  return npad * (uint64_t(21 * n) / 4 + 24);
+}
+
+void StepScratch::carve(Arena& a, const CubeSphere& m) {
+  const size_t nv = m.nv;
+  normals = a.alloc<double>(3 * nv);
+  target = a.alloc<double>(3 * nv);
+  disp = a.alloc<double>(3 * nv);
+  tmp = a.alloc<double>(3 * nv);
+  rhs = a.alloc<double>(3 * nv);
+  weight = a.alloc<double>(nv);
+  has = a.alloc<uint8_t>(nv);
+  tmp_has = a.alloc<uint8_t>(nv);
+  flipping = a.alloc<uint8_t>(nv);
+  seq = a.alloc<uint32_t>(m.loop_len);
+  folds.carve(a, m.nv);
+  pattern.carve(a, m.nv);
+}
+
 void Engine::layout(Arena& a) {
   mesh_.carve(a, cfg_.mesh_resolution);
+  const bool real = !a.measuring() && a.ok();
+  if (real) mesh_.build();
+  scratch_.carve(a, mesh_);
+  const bool real2 = !a.measuring() && a.ok();
+  if (real2) scratch_.pattern.build(mesh_.nbr);
+  if (!scratch_.solver.init(a, real2 ? scratch_.pattern.graph() : CsrGraph{mesh_.nv, nullptr, nullptr},
+                            solver_capacity(mesh_.n, mesh_.nv)) &&
+      real2)
+    solver_failed_ = true;
   objects_ = a.alloc<Object>(cfg_.max_objects);
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     double* x = a.alloc<double>(size_t(3) * mesh_.nv);
@@ -81,8 +120,7 @@ Engine* Engine::create(const Config& c, void* ws, size_t bytes) {
   Engine* e = new (at) Engine();
   e->cfg_ = c;
   e->layout(a);
-  if (!a.ok()) return nullptr;
-  e->mesh_.build();
+  if (!a.ok() || e->solver_failed_) return nullptr;
   e->magic_ = kMagic;
   return e;
 }
@@ -178,6 +216,186 @@ Err Engine::rasterize(uint32_t object, uint8_t* mask, const int64_t strides[3]) 
   if (oe != Err::ok) return oe;
   if (!vol_.valid()) return Err::misuse;
   rasterize_mesh(mesh_, objects_[object].x, vol_, mask, strides);
+  return Err::ok;
+}
+
+}  // namespace ffseg
+
+// ---- one deformation step (thesis Algorithm 1) ---------------------------------
+
+namespace ffseg {
+
+namespace {
+
+uint64_t now_us() {
+  return uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(
+                      std::chrono::steady_clock::now().time_since_epoch())
+                      .count());
+}
+
+// Weight floor for the positional term: thesis eq. 4.2.6 weights by d_i / d_mean,
+// which would release a vertex that sits on its target; a floor keeps it held.
+constexpr double kWeightFloor = 0.25;
+// Every vertex is tied to its current position with this fraction of lambda_p,
+// so that the system stays positive definite when no vertex has a target.
+constexpr double kAnchor = 1e-3;
+
+}  // namespace
+
+Err Engine::step(StepReport* r) {
+  if (!vol_.valid()) {
+    std::snprintf(msg_, kMsgLen, "step: no volume set (call ffseg_set_volume first)");
+    return Err::misuse;
+  }
+  if (params_.target_mode != TargetMode::binary) {
+    std::snprintf(msg_, kMsgLen, "step: target_mode %u is not available in this build",
+                  uint32_t(params_.target_mode));
+    return Err::not_implemented;
+  }
+  *r = StepReport();
+  uint32_t active = 0;
+  bool all_converged = true;
+  for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
+    if (!objects_[i].placed) continue;
+    const Err e = step_object(i, r, active < kReportObjects ? active : kReportObjects);
+    if (e != Err::ok) return e;
+    if (active < kReportObjects && !(r->mean_displacement_mm[active] < params_.convergence_mm))
+      all_converged = false;
+    ++active;
+  }
+  if (active == 0) {
+    std::snprintf(msg_, kMsgLen, "step: no object placed (call ffseg_init_sphere first)");
+    return Err::misuse;
+  }
+  ++steps_;
+  r->step_index = steps_;
+  r->active_objects = active;
+  return all_converged ? Err::converged : Err::ok;
+}
+
+Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
+  Object& o = objects_[oi];
+  StepScratch& s = scratch_;
+  const uint32_t nv = mesh_.nv;
+  double* x = o.x;
+  uint64_t t0 = now_us(), t1;
+  auto lap = [&](int stage) {
+    t1 = now_us();
+    r->stage_us[stage] += t1 - t0;
+    t0 = t1;
+  };
+
+  // 1. Correspondences along the normals.
+  vertex_normals(mesh_, x, s.normals);
+  SearchSettings ss;
+  ss.range_mm = params_.search_range_mm;
+  ss.step_mm = params_.search_step_mm > 0 ? params_.search_step_mm : 0.5 * vol_.min_spacing();
+  const uint32_t found = search_binary(vol_, nv, x, s.normals, ss, s.target, s.has);
+  lap(kStageSearch);
+
+  double moved = 0;
+  if (naive_) {
+    for (uint32_t v = 0; v < nv; ++v) {
+      if (!s.has[v]) continue;
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double dv = params_.step_size * (s.target[3 * size_t(v) + a] - x[3 * size_t(v) + a]);
+        x[3 * size_t(v) + a] += dv;
+        d2 += dv * dv;
+      }
+      moved += std::sqrt(d2);
+    }
+    if (slot < kReportObjects) {
+      r->mean_displacement_mm[slot] = moved / nv;
+      r->with_target[slot] = found;
+    }
+    return Err::ok;
+  }
+
+  // 2-3. Flip detection and avoidance on the contours.
+  detect_flips(mesh_, x, s.target, s.has, params_.flip_tau, s.flipping);
+  const uint32_t avoided = avoid_flips(mesh_, s.flipping, s.has, s.seq);
+  lap(kStageFlips);
+
+  // 4. Diffusion of the displacements.
+  for (uint32_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a)
+      s.disp[3 * size_t(v) + a] = s.has[v] ? s.target[3 * size_t(v) + a] - x[3 * size_t(v) + a] : 0.0;
+  diffuse_displacements(mesh_, params_.diffusion_iterations, s.disp, s.has, s.tmp, s.tmp_has);
+  lap(kStageDiffusion);
+
+  // 5. Non-flipping self-intersections: shorten disagreeing displacements.
+  const uint32_t folds = prevent_folds(mesh_, x, s.disp, s.has, params_.flip_tau, s.folds);
+  lap(kStageIntersection);
+
+  // 6. Laplacian deformation: p_i = u_i + alpha d_i, weights d_i / d_mean.
+  double dsum = 0;
+  uint32_t dcount = 0;
+  for (uint32_t v = 0; v < nv; ++v) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double p = x[3 * size_t(v) + a] + (s.has[v] ? params_.step_size * s.disp[3 * size_t(v) + a] : 0.0);
+      s.target[3 * size_t(v) + a] = p;
+      d2 += (p - x[3 * size_t(v) + a]) * (p - x[3 * size_t(v) + a]);
+    }
+    s.tmp[v] = std::sqrt(d2);
+    if (s.has[v]) {
+      dsum += s.tmp[v];
+      ++dcount;
+    }
+  }
+  const double dmean = dcount ? dsum / dcount : 0.0;
+  const double lp = params_.lambda_position;
+  for (uint32_t v = 0; v < nv; ++v) {
+    double w = lp * kAnchor;
+    if (s.has[v]) {
+      const double rel = dmean > 0 ? s.tmp[v] / dmean : 1.0;
+      w += lp * (rel > kWeightFloor ? rel : kWeightFloor);
+    }
+    s.weight[v] = w;
+  }
+  assemble_laplacian(mesh_, params_.lambda_laplacian, params_.lambda_uniform, s.weight, s.solver);
+  // The anchor pulls towards u_i, the positional term towards p_i: one target
+  // per vertex, the weighted mean of the two.
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (!s.has[v]) continue;
+    const double wa = lp * kAnchor, wp = s.weight[v] - wa;
+    for (int a = 0; a < 3; ++a) {
+      const size_t q = 3 * size_t(v) + a;
+      s.target[q] = (wa * x[q] + wp * s.target[q]) / s.weight[v];
+    }
+  }
+  laplacian_rhs(mesh_, params_.lambda_laplacian, params_.lambda_uniform, x, s.target, s.weight, s.rhs, s.tmp);
+  lap(kStageAssembly);
+  const int fr = s.solver.factor();
+  lap(kStageFactor);
+  if (fr != EnvelopeCholesky::kOk) {
+    std::snprintf(msg_, kMsgLen, "step: factorisation failed (code %d, row %lld); mesh unchanged", fr,
+                  (long long)s.solver.failed_row());
+    return Err::numeric;
+  }
+  s.solver.solve(s.rhs, 3, nv);
+  lap(kStageSolve);
+  for (size_t q = 0; q < size_t(3) * nv; ++q)
+    if (!std::isfinite(s.rhs[q])) {
+      std::snprintf(msg_, kMsgLen, "step: the solve produced non-finite positions; mesh unchanged");
+      return Err::numeric;
+    }
+  for (uint32_t v = 0; v < nv; ++v) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double nx = s.rhs[size_t(a) * nv + v];
+      d2 += (nx - x[3 * size_t(v) + a]) * (nx - x[3 * size_t(v) + a]);
+      x[3 * size_t(v) + a] = nx;
+    }
+    moved += std::sqrt(d2);
+  }
+  if (slot < kReportObjects) {
+    r->mean_displacement_mm[slot] = moved / nv;
+    r->with_target[slot] = found;
+    r->flips_avoided[slot] = avoided;
+    r->folds_avoided[slot] = folds;
+  }
   return Err::ok;
 }
 

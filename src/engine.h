@@ -5,7 +5,9 @@
 #include <cstdint>
 
 #include "arena.h"
+#include "band_cholesky.h"
 #include "cubesphere.h"
+#include "self_intersection.h"
 #include "volume.h"
 
 namespace ffseg {
@@ -62,9 +64,48 @@ struct Object {
   double* x = nullptr;  // 3 * nv current vertex positions, mm
 };
 
+enum Stage : int {
+  kStageSearch = 0,
+  kStageFlips,
+  kStageDiffusion,
+  kStageIntersection,
+  kStageAssembly,
+  kStageFactor,
+  kStageSolve,
+  kStageFeatures,
+  kStageCount
+};
+
+constexpr uint32_t kReportObjects = 16;
+
 struct StepReport {
   uint32_t step_index = 0;
   uint32_t active_objects = 0;
+  double mean_displacement_mm[kReportObjects] = {};
+  uint32_t with_target[kReportObjects] = {};
+  uint32_t flips_avoided[kReportObjects] = {};
+  uint32_t folds_avoided[kReportObjects] = {};
+  uint32_t border_vertices[kReportObjects] = {};
+  uint64_t stage_us[kStageCount] = {};
+};
+
+// Per-step working memory shared by all objects (they are stepped one after
+// the other).
+struct StepScratch {
+  double* normals = nullptr;  // 3 nv
+  double* target = nullptr;   // 3 nv: v_i, then p_i
+  double* disp = nullptr;     // 3 nv
+  double* tmp = nullptr;      // 3 nv
+  double* rhs = nullptr;      // 3 nv (three columns)
+  double* weight = nullptr;   // nv
+  uint8_t* has = nullptr;     // nv
+  uint8_t* tmp_has = nullptr; // nv
+  uint8_t* flipping = nullptr;// nv
+  uint32_t* seq = nullptr;    // loop_len
+  IntersectionScratch folds;
+  TwoRingGraph pattern;
+  EnvelopeCholesky solver;
+  void carve(Arena& a, const CubeSphere& m);
 };
 
 class Engine {
@@ -85,6 +126,12 @@ class Engine {
   Err extract_mesh(uint32_t object, float* xyz, size_t xyz_cap, uint32_t* tris, size_t tri_cap,
                    size_t* nv, size_t* nt) const;
   Err rasterize(uint32_t object, uint8_t* mask, const int64_t strides[3]) const;
+  // One deformation step of every placed object (Algorithm 1).
+  Err step(StepReport* report);
+  // Test hook: the naive variant of thesis fig. 4.10 (vertices move straight
+  // towards their targets; no flip or fold handling, no Laplacian solve).
+  void set_naive(bool on) { naive_ = on; }
+  uint32_t steps_taken() const { return steps_; }
 
   const char* message() const { return msg_; }
   void clear_message() { msg_[0] = '\0'; }
@@ -103,6 +150,7 @@ class Engine {
   Engine() = default;
   void layout(Arena& a);
   Err check_object(uint32_t object, bool must_be_placed) const;
+  Err step_object(uint32_t i, StepReport* r, uint32_t slot);
 
   uint32_t magic_ = 0;
   Config cfg_;
@@ -110,7 +158,10 @@ class Engine {
   CubeSphere mesh_;
   VolumeView vol_;
   Object* objects_ = nullptr;
+  StepScratch scratch_;
   uint32_t steps_ = 0;
+  bool naive_ = false;
+  bool solver_failed_ = false;
   char msg_[kMsgLen] = {};
 };
 

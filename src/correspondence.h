@@ -1,0 +1,26 @@
+// Correspondence search (thesis 4.2.2; METHOD.md section 2.1) for binary
+// targets: walk each vertex's normal, outward when the vertex lies inside the
+// object and inward when it lies outside, up to the search range, and return
+// the first crossing of the object's surface (the 0.5 level of the trilinearly
+// interpolated indicator) with sub-voxel precision. Beyond the grid is background.
+#pragma once
+#include <cstdint>
+
+#include "volume.h"
+
+namespace ffseg {
+
+struct SearchSettings {
+  double range_mm = 20;
+  double step_mm = 0.5;
+};
+
+// Trilinear interpolation of the indicator (voxel != 0) at index-space point p.
+double indicator_linear(const VolumeView& vol, const double p[3]);
+
+// For every vertex: has[v] = 1 and target[3v..] = the crossing, or has[v] = 0
+// (solitary). Returns the number of vertices with a target.
+uint32_t search_binary(const VolumeView& vol, uint32_t nv, const double* x, const double* normals,
+                       const SearchSettings& s, double* target, uint8_t* has);
+
+}  // namespace ffseg

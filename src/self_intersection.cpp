@@ -1,0 +1,79 @@
+#include "self_intersection.h"
+
+#include <cmath>
+
+namespace ffseg {
+
+void IntersectionScratch::carve(Arena& a, uint32_t nv) {
+  grid.carve(a, 2 * nv);
+  pts = a.alloc<double>(size_t(6) * nv);
+  mark = a.alloc<uint8_t>(nv);
+}
+
+namespace {
+constexpr int kMaxPasses = 8;
+}
+
+uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const uint8_t* has, double tau,
+                       IntersectionScratch& s) {
+  const uint32_t nv = m.nv;
+  // Cell size: the mean edge length, or half the longest displacement if
+  // larger, so that a ball query spans a handful of cells per axis.
+  double edge = 0;
+  for (uint32_t v = 0; v < nv; ++v) {
+    const uint32_t w = m.nbr[4 * size_t(v)];
+    double e2 = 0;
+    for (int a = 0; a < 3; ++a) e2 += (x[3 * size_t(v) + a] - x[3 * size_t(w) + a]) * (x[3 * size_t(v) + a] - x[3 * size_t(w) + a]);
+    edge += std::sqrt(e2);
+  }
+  edge /= double(nv);
+  for (uint32_t v = 0; v < nv; ++v) s.mark[v] = 0;
+  uint32_t shortened = 0;
+  for (int pass = 0; pass < kMaxPasses; ++pass) {
+    double dmax = 0;
+    for (uint32_t v = 0; v < nv; ++v) {
+      double len2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double dv = has[v] ? d[3 * size_t(v) + a] : 0.0;
+        s.pts[3 * size_t(v) + a] = x[3 * size_t(v) + a];
+        s.pts[3 * (size_t(nv) + v) + a] = x[3 * size_t(v) + a] + dv;
+        len2 += dv * dv;
+      }
+      dmax = std::fmax(dmax, std::sqrt(len2));
+    }
+    if (!(dmax > 0)) break;
+    const double h = std::fmax(edge, 0.5 * dmax);
+    s.grid.build(s.pts, 2 * nv, h);
+    uint32_t conflicts = 0;
+    for (uint32_t i = 0; i < nv; ++i) {
+      if (!has[i]) continue;
+      const double* di = d + 3 * size_t(i);
+      const double li = std::sqrt(di[0] * di[0] + di[1] * di[1] + di[2] * di[2]);
+      if (!(li > 0)) continue;
+      const uint32_t* nb = m.nbr + 4 * size_t(i);
+      s.grid.for_each_in_ball(x + 3 * size_t(i), li, [&](uint32_t id) {
+        const uint32_t j = id < nv ? id : id - nv;
+        if (j == i || !has[j] || j == nb[0] || j == nb[1] || j == nb[2] || j == nb[3]) return;
+        const double* dj = d + 3 * size_t(j);
+        const double lj = std::sqrt(dj[0] * dj[0] + dj[1] * dj[1] + dj[2] * dj[2]);
+        if (!(lj > 0)) return;
+        const double c = (di[0] * dj[0] + di[1] * dj[1] + di[2] * dj[2]) / (li * lj);
+        if (c <= tau) {
+          if (s.mark[i] < 2) s.mark[i] = 2;
+          if (s.mark[j] < 2) s.mark[j] = 2;
+          ++conflicts;
+        }
+      });
+    }
+    if (conflicts == 0) break;
+    for (uint32_t v = 0; v < nv; ++v)
+      if (s.mark[v] == 2) {
+        for (int a = 0; a < 3; ++a) d[3 * size_t(v) + a] *= 0.5;
+        s.mark[v] = 1;
+      }
+  }
+  for (uint32_t v = 0; v < nv; ++v) shortened += s.mark[v] != 0;
+  return shortened;
+}
+
+}  // namespace ffseg

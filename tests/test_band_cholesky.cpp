@@ -1,0 +1,536 @@
+// Tests of the RCM ordering and the envelope Cholesky solver.
+#include <doctest/doctest.h>
+
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "arena.h"
+#include "band_cholesky.h"
+#include "cubesphere.h"
+#include "rcm.h"
+
+namespace {
+
+using ffseg::Arena;
+using ffseg::CsrGraph;
+using ffseg::EnvelopeCholesky;
+using Kernel = EnvelopeCholesky::Kernel;
+
+struct KernelGuard {
+  ~KernelGuard() { EnvelopeCholesky::set_kernel(Kernel::automatic); }
+};
+
+// 64-byte aligned heap block for arenas.
+struct Block {
+  void* p = nullptr;
+  explicit Block(std::size_t bytes) { p = std::aligned_alloc(64, Arena::round_up(bytes ? bytes : 64)); }
+  ~Block() { std::free(p); }
+  Block(const Block&) = delete;
+  Block& operator=(const Block&) = delete;
+};
+
+// Symmetric graph from an edge list (both directions stored, duplicates and
+// self loops removed).
+struct Graph {
+  uint32_t n = 0;
+  std::vector<uint32_t> row_ptr, cols;
+  CsrGraph csr() const { return CsrGraph{n, row_ptr.data(), cols.data()}; }
+};
+
+Graph make_graph(uint32_t n, const std::vector<std::pair<uint32_t, uint32_t>>& edges) {
+  std::vector<std::vector<uint32_t>> adj(n);
+  for (auto e : edges) {
+    if (e.first == e.second) continue;
+    adj[e.first].push_back(e.second);
+    adj[e.second].push_back(e.first);
+  }
+  Graph g;
+  g.n = n;
+  g.row_ptr.push_back(0);
+  for (auto& a : adj) {
+    std::sort(a.begin(), a.end());
+    a.erase(std::unique(a.begin(), a.end()), a.end());
+    g.cols.insert(g.cols.end(), a.begin(), a.end());
+    g.row_ptr.push_back(uint32_t(g.cols.size()));
+  }
+  return g;
+}
+
+// w x h grid, 5-point stencil, vertices relabelled by label[] (nullptr = row-major).
+Graph grid_graph(uint32_t w, uint32_t h, const std::vector<uint32_t>* label) {
+  std::vector<std::pair<uint32_t, uint32_t>> e;
+  auto id = [&](uint32_t x, uint32_t y) {
+    const uint32_t v = y * w + x;
+    return label ? (*label)[v] : v;
+  };
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x) {
+      if (x + 1 < w) e.push_back({id(x, y), id(x + 1, y)});
+      if (y + 1 < h) e.push_back({id(x, y), id(x, y + 1)});
+    }
+  return make_graph(w * h, e);
+}
+
+bool is_permutation(const std::vector<uint32_t>& p) {
+  std::vector<char> seen(p.size(), 0);
+  for (uint32_t v : p) {
+    if (v >= p.size() || seen[v]) return false;
+    seen[v] = 1;
+  }
+  return true;
+}
+
+std::vector<uint32_t> rcm(const Graph& g) {
+  std::vector<uint32_t> perm(g.n), scratch(ffseg::rcm_scratch_words(g.n));
+  REQUIRE(ffseg::rcm_order(g.csr(), perm.data(), scratch.data()));
+  return perm;
+}
+
+std::vector<uint32_t> inverse(const std::vector<uint32_t>& p) {
+  std::vector<uint32_t> ip(p.size());
+  for (uint32_t i = 0; i < p.size(); ++i) ip[p[i]] = i;
+  return ip;
+}
+
+// A solver set up over its own exactly measured arena.
+struct Solver {
+  EnvelopeCholesky chol;
+  Block* block = nullptr;
+  std::size_t measured = 0, used = 0;
+  bool ok = false;
+  explicit Solver(const CsrGraph& g) {
+    std::vector<uint32_t> scratch(EnvelopeCholesky::measure_scratch_words(g.n));
+    Arena probe;
+    REQUIRE(chol.init(probe, g, 0, scratch.data()));
+    measured = probe.used();
+    block = new Block(measured);
+    Arena a(block->p, measured);
+    ok = chol.init(a, g);
+    used = a.used();
+  }
+  ~Solver() { delete block; }
+  Solver(const Solver&) = delete;
+  Solver& operator=(const Solver&) = delete;
+};
+
+struct Entry {
+  uint32_t i, j;
+  double v;
+};
+
+// Cube-sphere system lL A^T A + lP W + lU C^T C, as (i >= j) entries, repeated.
+std::vector<Entry> cube_sphere_system(const ffseg::CubeSphere& m, double lL, double lP, double lU,
+                                      const std::vector<double>& w) {
+  std::vector<Entry> t;
+  auto put = [&](uint32_t a, uint32_t b, double v) {
+    if (a < b) std::swap(a, b);
+    t.push_back({a, b, v});
+  };
+  for (uint32_t i = 0; i < m.nv; ++i) {
+    const uint32_t idx[5] = {i, m.nbr[4 * i], m.nbr[4 * i + 1], m.nbr[4 * i + 2], m.nbr[4 * i + 3]};
+    const double val[5] = {1.0, -0.25, -0.25, -0.25, -0.25};
+    for (int a = 0; a < 5; ++a)
+      for (int b = 0; b <= a; ++b) {
+        double v = lL * val[a] * val[b];
+        if (a != b && idx[a] == idx[b]) v *= 2;
+        put(idx[a], idx[b], v);
+      }
+    if (w[i] != 0) put(i, i, lP * w[i]);
+    for (int k = 0; k < 4; ++k) {
+      const uint32_t j = m.nbr[4 * i + k];
+      if (j > i) {
+        put(i, i, lU);
+        put(j, j, lU);
+        put(i, j, -lU);
+      }
+    }
+  }
+  return t;
+}
+
+Eigen::SparseMatrix<double> to_eigen(uint32_t n, const std::vector<Entry>& t) {
+  std::vector<Eigen::Triplet<double>> et;
+  for (const Entry& e : t) {
+    et.emplace_back(int(e.i), int(e.j), e.v);
+    if (e.i != e.j) et.emplace_back(int(e.j), int(e.i), e.v);
+  }
+  Eigen::SparseMatrix<double> A(n, n);
+  A.setFromTriplets(et.begin(), et.end());
+  return A;
+}
+
+double rel_diff(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).norm() / b.norm();
+}
+
+struct Mesh {
+  ffseg::CubeSphere m;
+  Block* block = nullptr;
+  explicit Mesh(uint32_t n) {
+    Arena probe;
+    m.carve(probe, n);
+    block = new Block(probe.used());
+    Arena a(block->p, probe.used());
+    m.carve(a, n);
+    m.build();
+  }
+  ~Mesh() { delete block; }
+  Mesh(const Mesh&) = delete;
+  Mesh& operator=(const Mesh&) = delete;
+};
+
+Graph two_ring(const ffseg::CubeSphere& m) {
+  Graph g;
+  g.n = m.nv;
+  g.row_ptr.resize(m.nv + 1);
+  g.cols.resize(ffseg::two_ring_capacity(m.nv));
+  REQUIRE(ffseg::build_two_ring(m.nv, m.nbr, g.row_ptr.data(), g.cols.data()));
+  g.cols.resize(g.row_ptr[m.nv]);
+  return g;
+}
+
+std::vector<Kernel> kernels() {
+  std::vector<Kernel> ks = {Kernel::portable, Kernel::avx2, Kernel::avx512};
+  return ks;
+}
+
+}  // namespace
+
+TEST_CASE("rcm: permutation that reduces the bandwidth of a scrambled grid") {
+  const uint32_t w = 37, h = 23;
+  std::vector<uint32_t> label(w * h);
+  for (uint32_t i = 0; i < label.size(); ++i) label[i] = i;
+  std::mt19937 rng(7);
+  std::shuffle(label.begin(), label.end(), rng);
+  const Graph g = grid_graph(w, h, &label);
+  const uint32_t bw0 = ffseg::graph_bandwidth(g.csr(), nullptr);
+  const std::vector<uint32_t> perm = rcm(g);
+  REQUIRE(is_permutation(perm));
+  const std::vector<uint32_t> ip = inverse(perm);
+  const uint32_t bw = ffseg::graph_bandwidth(g.csr(), ip.data());
+  CHECK(bw < bw0 / 10);
+  CHECK(bw <= h + 2);  // a w x h grid has an ordering of bandwidth min(w, h)
+  CHECK(ffseg::graph_envelope(g.csr(), ip.data()) < ffseg::graph_envelope(g.csr(), nullptr) / 10);
+  // Deterministic.
+  CHECK(rcm(g) == perm);
+}
+
+TEST_CASE("rcm: disconnected graphs, isolated nodes, empty and malformed input") {
+  // Two grids with interleaved labels plus isolated nodes.
+  std::vector<std::pair<uint32_t, uint32_t>> e;
+  const uint32_t n = 2 * 40 + 5;
+  for (uint32_t c = 0; c < 2; ++c)
+    for (uint32_t y = 0; y < 5; ++y)
+      for (uint32_t x = 0; x < 8; ++x) {
+        auto id = [&](uint32_t xx, uint32_t yy) { return 2 * (yy * 8 + xx) + c; };
+        if (x + 1 < 8) e.push_back({id(x, y), id(x + 1, y)});
+        if (y + 1 < 5) e.push_back({id(x, y), id(x, y + 1)});
+      }
+  const Graph g = make_graph(n, e);
+  const std::vector<uint32_t> perm = rcm(g);
+  REQUIRE(is_permutation(perm));
+  const std::vector<uint32_t> ip = inverse(perm);
+  CHECK(ffseg::graph_bandwidth(g.csr(), ip.data()) <= 7);
+  // Each component occupies a contiguous range of new indices.
+  for (uint32_t c = 0; c < 2; ++c) {
+    uint32_t lo = n, hi = 0;
+    for (uint32_t v = c; v < 80; v += 2) {
+      lo = std::min(lo, ip[v]);
+      hi = std::max(hi, ip[v]);
+    }
+    CHECK(hi - lo == 39);
+  }
+
+  Graph empty;
+  empty.row_ptr = {0};
+  std::vector<uint32_t> none;
+  CHECK(ffseg::rcm_order(empty.csr(), none.data(), none.data()));
+
+  Graph bad = make_graph(3, {{0, 1}, {1, 2}});
+  bad.cols[0] = 9;
+  std::vector<uint32_t> p(3), s(ffseg::rcm_scratch_words(3));
+  CHECK_FALSE(ffseg::rcm_order(bad.csr(), p.data(), s.data()));
+}
+
+TEST_CASE("cholesky: 2-ring graph of the cube sphere") {
+  Mesh mesh(6);
+  const Graph g = two_ring(mesh.m);
+  uint32_t n12 = 0;
+  for (uint32_t v = 0; v < g.n; ++v) {
+    const uint32_t deg = g.row_ptr[v + 1] - g.row_ptr[v];
+    CHECK(deg <= 12);
+    CHECK(deg >= 9);
+    n12 += deg == 12;
+    for (uint32_t e = g.row_ptr[v]; e < g.row_ptr[v + 1]; ++e) {
+      const uint32_t w = g.cols[e];
+      CHECK(w != v);
+      if (e > g.row_ptr[v]) CHECK(g.cols[e - 1] < w);
+      // Symmetric.
+      CHECK(std::binary_search(g.cols.begin() + g.row_ptr[w], g.cols.begin() + g.row_ptr[w + 1], v));
+    }
+    for (int k = 0; k < 4; ++k)
+      CHECK(std::binary_search(g.cols.begin() + g.row_ptr[v], g.cols.begin() + g.row_ptr[v + 1],
+                               mesh.m.nbr[4 * v + k]));
+  }
+  CHECK(n12 > g.n / 2);
+}
+
+TEST_CASE("cholesky: cube-sphere system matches Eigen SimplicialLLT, all kernels") {
+  KernelGuard guard;
+  std::mt19937_64 rng(2024);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  for (uint32_t n : {2u, 3u, 5u, 8u, 13u}) {
+    Mesh mesh(n);
+    const uint32_t nv = mesh.m.nv;
+    const Graph g = two_ring(mesh.m);
+    std::vector<double> w(nv, 0.0);
+    for (uint32_t i = 0; i < nv; ++i)
+      if (U(rng) < 0.4) w[i] = 0.1 + U(rng);
+    w[nv / 2] = 1.0;  // at least one positive weight
+    const double lL = 0.1 + 2 * U(rng), lP = 0.1 + 2 * U(rng), lU = 2 * U(rng);
+    const std::vector<Entry> t = cube_sphere_system(mesh.m, lL, lP, lU, w);
+
+    const Eigen::SparseMatrix<double> A = to_eigen(nv, t);
+    Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(A);
+    REQUIRE(llt.info() == Eigen::Success);
+    Eigen::MatrixXd B = Eigen::MatrixXd::Random(nv, 3);
+    const Eigen::MatrixXd X = llt.solve(B);
+
+    Solver s(g.csr());
+    REQUIRE(s.ok);
+    CHECK(s.used == s.measured);
+    CHECK(s.chol.size() == nv);
+    CHECK(s.chol.bandwidth() == ffseg::graph_bandwidth(g.csr(), s.chol.iperm()));
+    CHECK(s.chol.envelope_entries() == ffseg::graph_envelope(g.csr(), s.chol.iperm()));
+    for (Kernel k : kernels()) {
+      CAPTURE(n);
+      CAPTURE(EnvelopeCholesky::kernel_name(k));
+      EnvelopeCholesky::set_kernel(k);
+      s.chol.clear();
+      for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
+      CHECK(s.chol.get(0, 0) == doctest::Approx(A.coeff(0, 0)));
+      REQUIRE(s.chol.factor() == EnvelopeCholesky::kOk);
+      Eigen::MatrixXd Y = B;
+      REQUIRE(s.chol.solve(Y.data(), 3, std::size_t(nv)) == EnvelopeCholesky::kOk);
+      CHECK(rel_diff(Y, X) < 1e-10);
+      CHECK((A * Y - B).norm() / B.norm() < 1e-10);
+    }
+  }
+}
+
+TEST_CASE("cholesky: random SPD envelope matrices match Eigen, any nrhs and ld") {
+  KernelGuard guard;
+  std::mt19937_64 rng(99);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (int trial = 0; trial < 40; ++trial) {
+    const uint32_t n = 1 + uint32_t(rng() % 150);
+    const uint32_t band = 1 + uint32_t(rng() % 40);
+    // Random variable-band pattern, scrambled labels.
+    std::vector<uint32_t> label(n);
+    for (uint32_t i = 0; i < n; ++i) label[i] = i;
+    std::shuffle(label.begin(), label.end(), rng);
+    std::vector<std::pair<uint32_t, uint32_t>> edges;
+    std::vector<Entry> t;
+    std::vector<double> rowsum(n, 0.0);
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t first = i >= band ? i - uint32_t(rng() % (band + 1)) : uint32_t(rng() % (i + 1));
+      for (uint32_t j = first; j < i; ++j) {
+        if (j != first && rng() % 3 == 0) continue;  // sparse inside the envelope
+        const double v = U(rng);
+        edges.push_back({label[i], label[j]});
+        t.push_back({std::max(label[i], label[j]), std::min(label[i], label[j]), v});
+        rowsum[label[i]] += std::fabs(v);
+        rowsum[label[j]] += std::fabs(v);
+      }
+    }
+    // Diagonal dominance in half of the trials; otherwise B B^T-like scaling
+    // with a weaker diagonal that is still SPD (checked by Eigen).
+    const bool dominant = trial % 2 == 0;
+    for (uint32_t i = 0; i < n; ++i)
+      t.push_back({i, i, (dominant ? rowsum[i] : 0.6 * rowsum[i]) + 0.5 + std::fabs(U(rng))});
+    const Graph g = make_graph(n, edges);
+    const Eigen::SparseMatrix<double> A = to_eigen(n, t);
+    Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(A);
+    if (llt.info() != Eigen::Success) continue;  // not SPD: skip this draw
+
+    const int nrhs = 1 + int(rng() % 5);
+    const std::size_t ld = n + (rng() % 3);
+    Eigen::MatrixXd B = Eigen::MatrixXd::Random(Eigen::Index(ld), nrhs);
+    const Eigen::MatrixXd X = llt.solve(B.topRows(n));
+    Solver s(g.csr());
+    REQUIRE(s.ok);
+    CHECK(s.used == s.measured);
+    for (Kernel k : kernels()) {
+      CAPTURE(trial);
+      CAPTURE(EnvelopeCholesky::kernel_name(k));
+      EnvelopeCholesky::set_kernel(k);
+      s.chol.clear();
+      for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
+      REQUIRE(s.chol.factor() == EnvelopeCholesky::kOk);
+      Eigen::MatrixXd Y = B;
+      REQUIRE(s.chol.solve(Y.data(), nrhs, ld) == EnvelopeCholesky::kOk);
+      CHECK(rel_diff(Y.topRows(n), X) < 1e-10);
+      // Rows beyond n (ld padding) are untouched.
+      if (ld > n) CHECK((Y.bottomRows(Eigen::Index(ld - n)) - B.bottomRows(Eigen::Index(ld - n))).norm() == 0.0);
+    }
+  }
+}
+
+TEST_CASE("cholesky: portable, AVX2 and AVX-512 kernels agree on the factor") {
+  KernelGuard guard;
+  Mesh mesh(11);
+  const Graph g = two_ring(mesh.m);
+  std::vector<double> w(mesh.m.nv, 0.0);
+  for (uint32_t i = 0; i < mesh.m.nv; i += 3) w[i] = 1.0 + 0.01 * (i % 7);
+  const std::vector<Entry> t = cube_sphere_system(mesh.m, 1.0, 0.7, 0.5, w);
+  Solver s(g.csr());
+  REQUIRE(s.ok);
+  std::vector<std::vector<double>> L;
+  std::vector<Kernel> used;
+  for (Kernel k : kernels()) {
+    EnvelopeCholesky::set_kernel(k);
+    used.push_back(EnvelopeCholesky::active_kernel());
+    s.chol.clear();
+    for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
+    REQUIRE(s.chol.factor() == EnvelopeCholesky::kOk);
+    std::vector<double> l;
+    for (uint32_t v = 0; v < g.n; ++v) {
+      l.push_back(s.chol.get(v, v));
+      for (uint32_t e = g.row_ptr[v]; e < g.row_ptr[v + 1]; ++e) l.push_back(s.chol.get(v, g.cols[e]));
+    }
+    L.push_back(l);
+  }
+  CHECK(used[0] == Kernel::portable);
+  MESSAGE("kernels exercised: " << std::string(EnvelopeCholesky::kernel_name(used[0])) << ", "
+                                << std::string(EnvelopeCholesky::kernel_name(used[1])) << ", "
+                                << std::string(EnvelopeCholesky::kernel_name(used[2])));
+  for (std::size_t k = 1; k < L.size(); ++k) {
+    double maxd = 0, maxv = 0;
+    for (std::size_t i = 0; i < L[0].size(); ++i) {
+      maxd = std::max(maxd, std::fabs(L[k][i] - L[0][i]));
+      maxv = std::max(maxv, std::fabs(L[0][i]));
+    }
+    CHECK(maxd <= 1e-12 * maxv);
+  }
+}
+
+TEST_CASE("cholesky: indefinite, singular, NaN and infinite matrices give error codes") {
+  KernelGuard guard;
+  const Graph g = grid_graph(9, 7, nullptr);
+  Solver s(g.csr());
+  REQUIRE(s.ok);
+  auto laplacian = [&](double shift) {
+    s.chol.clear();
+    for (uint32_t v = 0; v < g.n; ++v) {
+      s.chol.add(v, v, double(g.row_ptr[v + 1] - g.row_ptr[v]) + shift);
+      for (uint32_t e = g.row_ptr[v]; e < g.row_ptr[v + 1]; ++e)
+        if (g.cols[e] < v) s.chol.add(v, g.cols[e], -1.0);
+    }
+  };
+  for (Kernel k : kernels()) {
+    CAPTURE(EnvelopeCholesky::kernel_name(k));
+    EnvelopeCholesky::set_kernel(k);
+    laplacian(0.1);
+    CHECK(s.chol.factor() == EnvelopeCholesky::kOk);
+
+    laplacian(-0.5);  // indefinite
+    CHECK(s.chol.factor() == EnvelopeCholesky::kNotPositiveDefinite);
+    CHECK(s.chol.failed_row() >= 0);
+    std::vector<double> b(g.n, 1.0);
+    CHECK(s.chol.solve(b.data(), 1, g.n) == EnvelopeCholesky::kNotReady);
+
+    laplacian(0.1);
+    s.chol.add(5, 5, -100.0);  // negative pivot early
+    CHECK(s.chol.factor() == EnvelopeCholesky::kNotPositiveDefinite);
+
+    laplacian(0.1);
+    s.chol.add(20, 20, std::numeric_limits<double>::quiet_NaN());
+    CHECK(s.chol.factor() == EnvelopeCholesky::kNonFinite);
+
+    laplacian(0.1);
+    s.chol.add(30, 29, std::numeric_limits<double>::quiet_NaN());  // off-diagonal NaN
+    const int rc = s.chol.factor();
+    CHECK(rc == EnvelopeCholesky::kNonFinite);
+
+    laplacian(0.1);
+    s.chol.add(40, 40, std::numeric_limits<double>::infinity());
+    CHECK(s.chol.factor() == EnvelopeCholesky::kNonFinite);
+
+    laplacian(0.1);
+    s.chol.add(41, 40, std::numeric_limits<double>::infinity());  // off-diagonal inf
+    CHECK(s.chol.factor() == EnvelopeCholesky::kNonFinite);
+
+    laplacian(0.1);
+    s.chol.add(0, 62, 1.0);  // far outside the envelope
+    CHECK(s.chol.factor() == EnvelopeCholesky::kOutOfPattern);
+    laplacian(0.1);
+    s.chol.add(0, 1000, 1.0);  // bad index
+    CHECK(s.chol.factor() == EnvelopeCholesky::kOutOfPattern);
+    laplacian(0.1);  // clear() resets the flag
+    CHECK(s.chol.factor() == EnvelopeCholesky::kOk);
+  }
+  EnvelopeCholesky fresh;
+  CHECK(fresh.factor() == EnvelopeCholesky::kNotReady);
+}
+
+TEST_CASE("cholesky: measuring pass is exact and writes nothing") {
+  Mesh mesh(7);
+  const Graph g = two_ring(mesh.m);
+  std::vector<uint32_t> scratch(EnvelopeCholesky::measure_scratch_words(g.n));
+
+  // Exact mode.
+  EnvelopeCholesky a;
+  Arena probe;
+  probe.alloc<char>(3);  // something carved before
+  REQUIRE(a.init(probe, g.csr(), 0, scratch.data()));
+  Block blk(probe.used());
+  std::memset(blk.p, 0xAB, probe.used());
+  Arena real(blk.p, probe.used());
+  real.alloc<char>(3);
+  REQUIRE(a.init(real, g.csr()));
+  CHECK(real.used() == probe.used());
+  CHECK(real.ok());
+
+  uint64_t stored = 0;
+  uint32_t bw = 0;
+  REQUIRE(EnvelopeCholesky::stored_entries_for(g.csr(), scratch.data(), &stored, &bw));
+  CHECK(stored == a.stored_entries());
+  CHECK(bw == a.bandwidth());
+
+  // Without graph or scratch the measuring pass needs a capacity.
+  EnvelopeCholesky c;
+  Arena p2;
+  CHECK_FALSE(c.init(p2, CsrGraph{g.n, nullptr, nullptr}, 0, nullptr));
+
+  // Capacity mode: the measuring pass needs neither graph nor scratch.
+  const uint64_t cap = stored + 100;
+  EnvelopeCholesky b;
+  Arena p3;
+  REQUIRE(b.init(p3, CsrGraph{g.n, nullptr, nullptr}, cap));
+  Block blk3(p3.used());
+  Arena r3(blk3.p, p3.used());
+  REQUIRE(b.init(r3, g.csr(), cap));
+  CHECK(r3.used() == p3.used());
+
+  // Too small a capacity or a too small buffer fail cleanly.
+  EnvelopeCholesky d;
+  Arena p4;
+  REQUIRE(d.init(p4, CsrGraph{g.n, nullptr, nullptr}, stored - 1));
+  Block blk4(p4.used());
+  Arena r4(blk4.p, p4.used());
+  CHECK_FALSE(d.init(r4, g.csr(), stored - 1));
+  CHECK(d.factor() == EnvelopeCholesky::kNotReady);
+  EnvelopeCholesky e;
+  Arena r5(blk4.p, probe.used() / 2);
+  CHECK_FALSE(e.init(r5, g.csr()));
+  CHECK(e.factor() == EnvelopeCholesky::kNotReady);
+}
