@@ -1,6 +1,7 @@
 // The C ABI: the only place that knows public status codes and struct_size.
 // Every entry point validates its pointers, copies versioned structs through
 // min(struct_size, sizeof) and maps the core's Err onto ffseg_status.
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -283,6 +284,20 @@ FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object, const
   if (center_mm == nullptr) {
     std::snprintf(en->message_buffer(), Engine::kMsgLen, "init_sphere: center is NULL");
     return FFSEG_ERR_NULL_POINTER;
+  }
+  // Meshes leave the engine as float: a finite sphere whose vertices would not
+  // fit (|centre| + radius beyond 1e30 mm) would come back as infinities.
+  if (object < en->config().max_objects && en->volume().valid()) {
+    constexpr double kMaxCoordMm = 1e30;
+    for (int a = 0; a < 3; ++a) {
+      const double reach = std::fabs(center_mm[a]) + std::fabs(radius_mm);
+      if (reach > kMaxCoordMm && std::isfinite(reach)) {
+        std::snprintf(en->message_buffer(), Engine::kMsgLen,
+                      "init_sphere: |centre| + radius = %g mm exceeds 1e30 mm (meshes are extracted as float)",
+                      reach);
+        return FFSEG_ERR_INVALID_ARGUMENT;
+      }
+    }
   }
   return to_status(en->init_sphere(object, center_mm, radius_mm));
 }

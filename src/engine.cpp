@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <new>
 
 #include "correspondence.h"
@@ -11,6 +12,7 @@
 #include "laplacian_system.h"
 #include "normals.h"
 #include "rasterize.h"
+#include "step_guard.h"
 
 namespace ffseg {
 
@@ -381,6 +383,7 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
       std::snprintf(msg_, kMsgLen, "step: the solve produced non-finite positions; mesh unchanged");
       return Err::numeric;
     }
+  guard_step(mesh_, x, s.rhs, s.tmp_has);
   for (uint32_t v = 0; v < nv; ++v) {
     double d2 = 0;
     for (int a = 0; a < 3; ++a) {

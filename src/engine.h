@@ -45,10 +45,10 @@ struct Params {
   double lambda_uniform = 0.25;
   double step_size = 0.5;
   double flip_tau = 0.2;
-  double search_range_mm = 20.0;
+  double search_range_mm = 80.0;
   double search_step_mm = 0.0;
   double convergence_mm = 0.05;
-  uint32_t diffusion_iterations = 3;
+  uint32_t diffusion_iterations = 20;
   uint32_t consecutive_background = 3;
 };
 

@@ -58,7 +58,17 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
         const double lj = std::sqrt(dj[0] * dj[0] + dj[1] * dj[1] + dj[2] * dj[2]);
         if (!(lj > 0)) return;
         const double c = (di[0] * dj[0] + di[1] * dj[1] + di[2] * dj[2]) / (li * lj);
-        if (c <= tau) {
+        if (c > tau) return;
+        // Only a point ahead of u_i, on a path that closes in on u_j, can be
+        // crossed: vertices on opposite sides of a growing or shrinking
+        // surface disagree in direction but move apart or in parallel.
+        const double* ui = x + 3 * size_t(i);
+        const double* uj = x + 3 * size_t(j);
+        const double* q = s.pts + 3 * size_t(id);
+        const double ahead = (q[0] - ui[0]) * di[0] + (q[1] - ui[1]) * di[1] + (q[2] - ui[2]) * di[2];
+        const double closing = (di[0] - dj[0]) * (ui[0] - uj[0]) + (di[1] - dj[1]) * (ui[1] - uj[1]) +
+                               (di[2] - dj[2]) * (ui[2] - uj[2]);
+        if (ahead > 0 && closing < 0) {
           if (s.mark[i] < 2) s.mark[i] = 2;
           if (s.mark[j] < 2) s.mark[j] = 2;
           ++conflicts;

@@ -39,14 +39,13 @@ bool fail(char* msg, size_t n, const char* text) {
 bool invert_affine(const double A[12], double out[12]) {
   const double a = A[0], b = A[1], c = A[2], d = A[4], e = A[5], f = A[6], g = A[8], h = A[9], i = A[10];
   const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
-  double scale = 0;
-  for (int r = 0; r < 3; ++r) {
-    double s = 0;
-    for (int cc = 0; cc < 3; ++cc) s += A[4 * r + cc] * A[4 * r + cc];
-    scale = scale > s ? scale : s;
-  }
-  // |det| relative to the largest row norm cubed: rejects near-degenerate frames.
-  if (!(std::fabs(det) > 1e-12 * scale * std::sqrt(scale)) || !std::isfinite(det)) return false;
+  // |det| relative to the product of the column norms (the voxel edge lengths;
+  // Hadamard: the ratio is in [0, 1] whatever the spacings): rejects
+  // near-degenerate frames but accepts any anisotropy, as the NIfTI reader does.
+  double scale = 1;
+  for (int cc = 0; cc < 3; ++cc)
+    scale *= std::sqrt(A[cc] * A[cc] + A[4 + cc] * A[4 + cc] + A[8 + cc] * A[8 + cc]);
+  if (!(std::fabs(det) > 1e-12 * scale) || !std::isfinite(det)) return false;
   const double inv[9] = {(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det,
                          (f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det,
                          (d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det};

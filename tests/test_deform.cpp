@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "engine.h"
@@ -48,6 +49,12 @@ RunResult run_deform(const Phantom& ph, const RunOptions& o) {
   ffseg_params_init_default(&p);
   p.step_size = o.alpha;
   if (o.search_range > 0) p.search_range_mm = o.search_range;
+  if (const char* e = std::getenv("FFSEG_LL")) p.lambda_laplacian = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_LP")) p.lambda_position = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_LU")) p.lambda_uniform = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_DIFF")) p.diffusion_iterations = uint32_t(std::atoi(e));
+  if (const char* e = std::getenv("FFSEG_TAU")) p.flip_tau = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_CONV")) p.convergence_mm = std::atof(e);
   REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
   ffseg_volume v = make_volume(ph.mask.data(), FFSEG_U8, ph.dims, ph.affine);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
@@ -105,18 +112,34 @@ RunResult run_deform(const Phantom& ph, const RunOptions& o) {
 }  // namespace
 
 TEST_CASE("deform experiment" * doctest::skip()) {
-  const Phantom cup = cup_phantom();
+  const char* shape = std::getenv("FFSEG_SHAPE");
+  const std::string sh = shape ? shape : "cup";
+  Phantom ph;
   RunOptions o;
+  if (sh == "cup") {
+    ph = cup_phantom();
+    o.radius = 60;
+  } else if (sh == "big") {  // target larger than the mesh
+    const double c[3] = {32, 33, 31};
+    ph = ball_phantom(64, c, 24);
+    o.radius = 10;
+  } else if (sh == "small") {
+    const double c[3] = {32, 33, 31};
+    ph = ball_phantom(64, c, 12);
+    o.radius = 26;
+  } else {
+    ph = ellipsoid_phantom();
+    o.radius = 8;
+  }
+  for (int a = 0; a < 3; ++a) o.center[a] = ph.center[a];
   o.n = 33;
   o.alpha = 0.5;
-  for (int a = 0; a < 3; ++a) o.center[a] = cup.center[a];
-  o.radius = 60;
-  o.verbose = true;
+  o.verbose = std::getenv("FFSEG_VERBOSE") != nullptr;
   if (const char* sr = std::getenv("FFSEG_SR")) o.search_range = std::atof(sr);
   if (const char* nn = std::getenv("FFSEG_N")) o.n = uint32_t(std::atoi(nn));
   if (const char* al = std::getenv("FFSEG_ALPHA")) o.alpha = std::atof(al);
   o.max_steps = 150;
-  RunResult r = run_deform(cup, o);
-  std::printf("cup dice %.4f steps %d conv %d inter %zu flips %zu closed %d\n", r.dice, r.steps, r.converged,
-              r.intersections, r.flips, r.closed);
+  RunResult r = run_deform(ph, o);
+  std::printf("%s n=%u alpha=%.1f dice %.4f steps %d conv %d inter %zu flips %zu closed %d\n", sh.c_str(), o.n, o.alpha,
+              r.dice, r.steps, r.converged, r.intersections, r.flips, r.closed);
 }

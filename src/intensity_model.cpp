@@ -1,0 +1,429 @@
+#include "intensity_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "smoothing.h"
+
+namespace ffseg {
+
+namespace {
+
+constexpr uint32_t kWorkBins = IntensityModel::kMaxBins;
+
+uint32_t gcd32(uint32_t a, uint32_t b) {
+  while (b) {
+    const uint32_t t = a % b;
+    a = b;
+    b = t;
+  }
+  return a;
+}
+
+void say(char* msg, size_t n, const char* text) {
+  if (msg && n) std::snprintf(msg, n, "%s", text);
+}
+
+}  // namespace
+
+uint32_t mixing_stride(uint32_t n) {
+  if (n <= 2) return 1;
+  uint32_t s = uint32_t(0.6180339887498949 * double(n) + 0.5);
+  if (s < 1) s = 1;
+  while (s < n && gcd32(s, n) != 1) ++s;
+  return s < n ? s : 1;
+}
+
+uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, Bin* bins, uint32_t max_bins,
+                          uint32_t stride) {
+  if (n == 0) return 0;
+  stride %= n;
+  if (stride == 0 || gcd32(stride, n) != 1) stride = 1;
+  const double R = s.radius, S = s.separation;
+  const uint32_t Nm = s.min_count;
+  // Working clusters: centroid, and per pass the members' count, sum and sum of
+  // squares of (x - centroid).
+  double c[kWorkBins], sum[kWorkBins], sum2[kWorkBins], prev[kWorkBins];
+  uint32_t cnt[kWorkBins];
+  uint32_t K = 0, prevK = 0;
+  const double tol = 1e-6 * (R > 0 ? R : 1.0);
+  for (uint32_t pass = 0; pass < (s.max_passes ? s.max_passes : 1); ++pass) {
+    for (uint32_t k = 0; k < K; ++k) cnt[k] = 0, sum[k] = 0, sum2[k] = 0;
+    uint64_t idx = 0;
+    for (uint32_t t = 0; t < n; ++t) {
+      const double p = x[idx];
+      idx += stride;
+      if (idx >= n) idx -= n;
+      if (!std::isfinite(p)) continue;
+      // Nearest cluster k to p (Algorithm 2).
+      uint32_t best = 0;
+      double d = INFINITY;
+      for (uint32_t k = 0; k < K; ++k) {
+        const double dk = std::fabs(p - c[k]);
+        if (dk < d) d = dk, best = k;
+      }
+      if (K == 0 || d >= S) {  // no cluster, or too far from all: a new cluster with p
+        if (K < kWorkBins) {
+          c[K] = p, cnt[K] = 1, sum[K] = 0, sum2[K] = 0;
+          ++K;
+        }
+      } else if (d <= R) {  // close enough: p joins cluster k
+        const double e = p - c[best];
+        ++cnt[best];
+        sum[best] += e;
+        sum2[best] += e * e;
+      }  // R < d < S: left for the next pass
+    }
+    // Every cluster moves to its members' centroid (sum2 becomes their variance).
+    uint32_t live = 0;
+    for (uint32_t k = 0; k < K; ++k) {
+      if (cnt[k] == 0) continue;
+      const double mean = sum[k] / cnt[k];
+      c[live] = c[k] + mean;
+      cnt[live] = cnt[k];
+      sum[live] = 0;
+      sum2[live] = std::max(0.0, sum2[k] / cnt[k] - mean * mean);
+      ++live;
+    }
+    K = live;
+    // Keep the separation guarantee: centroids that drifted closer than S are
+    // merged (closest pair first). Without this a single mode seeded from its
+    // tail splits into two stable halves less than S apart.
+    for (;;) {
+      uint32_t ba = 0, bb = 0;
+      double bd = INFINITY;
+      for (uint32_t a = 0; a < K; ++a)
+        for (uint32_t b = a + 1; b < K; ++b) {
+          const double d = std::fabs(c[a] - c[b]);
+          if (d < bd) bd = d, ba = a, bb = b;
+        }
+      if (!(bd < S)) break;
+      const double na = cnt[ba], nb = cnt[bb], nt = na + nb;
+      const double cm = (na * c[ba] + nb * c[bb]) / nt;
+      sum2[ba] = (na * (sum2[ba] + (c[ba] - cm) * (c[ba] - cm)) + nb * (sum2[bb] + (c[bb] - cm) * (c[bb] - cm))) / nt;
+      c[ba] = cm;
+      cnt[ba] += cnt[bb];
+      --K;
+      c[bb] = c[K], cnt[bb] = cnt[K], sum2[bb] = sum2[K];
+    }
+    // Clusters with fewer than N_m members are removed.
+    uint32_t kept = 0;
+    for (uint32_t k = 0; k < K; ++k) {
+      if (cnt[k] < Nm) continue;
+      c[kept] = c[k], cnt[kept] = cnt[k], sum2[kept] = sum2[k];
+      ++kept;
+    }
+    K = kept;
+    bool same = K == prevK;
+    for (uint32_t k = 0; same && k < K; ++k) same = std::fabs(c[k] - prev[k]) <= tol;
+    for (uint32_t k = 0; k < K; ++k) prev[k] = c[k];
+    prevK = K;
+    if (same) break;
+  }
+  // The max_bins largest, sorted by centroid.
+  uint32_t order[kWorkBins];
+  for (uint32_t k = 0; k < K; ++k) order[k] = k;
+  std::sort(order, order + K, [&](uint32_t a, uint32_t b) { return cnt[a] != cnt[b] ? cnt[a] > cnt[b] : c[a] < c[b]; });
+  const uint32_t out = K < max_bins ? K : max_bins;
+  std::sort(order, order + out, [&](uint32_t a, uint32_t b) { return c[a] < c[b]; });
+  for (uint32_t i = 0; i < out; ++i) {
+    bins[i].centroid = c[order[i]];
+    bins[i].count = cnt[order[i]];
+    bins[i].var = sum2[order[i]];
+  }
+  return K;
+}
+
+EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
+                double var_floor, double tol) {
+  EmResult r;
+  uint32_t m = *m_io;
+  if (n == 0 || m == 0) return r;
+  // Work about the sample mean (conditioning of the second moments).
+  double shift = 0, lo = INFINITY, hi = -INFINITY;
+  uint32_t nf = 0;  // finite samples; the others are skipped
+  for (uint32_t j = 0; j < n; ++j) {
+    if (!std::isfinite(x[j])) continue;
+    ++nf;
+    shift += x[j];
+    lo = std::min(lo, double(x[j]));
+    hi = std::max(hi, double(x[j]));
+  }
+  if (nf == 0) return r;
+  shift /= nf;
+  const double scale = hi > lo ? hi - lo : std::max(1.0, std::fabs(shift));
+  const double vmin = std::max(var_floor, 1e-12 * scale * scale);
+  double a[IntensityModel::kMaxComponents], mu[IntensityModel::kMaxComponents], v[IntensityModel::kMaxComponents];
+  for (uint32_t i = 0; i < m; ++i) {
+    a[i] = comp[i].weight > 0 ? comp[i].weight : 1.0 / m;
+    mu[i] = comp[i].mean - shift;
+    v[i] = std::max(comp[i].var, vmin);
+  }
+  const double half_log_2pi = 0.5 * std::log(6.283185307179586);
+  double ll_prev = -INFINITY;
+  uint32_t it = 0;
+  while (it < max_iterations) {
+    ++it;
+    double la[IntensityModel::kMaxComponents], ih[IntensityModel::kMaxComponents];
+    double Z[IntensityModel::kMaxComponents] = {}, Zx[IntensityModel::kMaxComponents] = {},
+           Zxx[IntensityModel::kMaxComponents] = {};
+    for (uint32_t i = 0; i < m; ++i) {
+      la[i] = std::log(a[i]) - 0.5 * std::log(v[i]);
+      ih[i] = 0.5 / v[i];
+    }
+    double ll = 0;
+    for (uint32_t j = 0; j < n; ++j) {
+      if (!std::isfinite(x[j])) continue;
+      const double xj = double(x[j]) - shift;
+      double l[IntensityModel::kMaxComponents], mx = -INFINITY;
+      for (uint32_t i = 0; i < m; ++i) {
+        const double d = xj - mu[i];
+        l[i] = la[i] - d * d * ih[i];
+        mx = l[i] > mx ? l[i] : mx;
+      }
+      double s = 0;
+      for (uint32_t i = 0; i < m; ++i) s += (l[i] = std::exp(l[i] - mx));
+      ll += mx + std::log(s);
+      const double inv = 1.0 / s;
+      for (uint32_t i = 0; i < m; ++i) {
+        const double z = l[i] * inv;  // z_ij, eq. 5.2.4
+        Z[i] += z;
+        Zx[i] += z * xj;
+        Zxx[i] += z * xj * xj;
+      }
+    }
+    ll = ll / nf - half_log_2pi;
+    // M-step (eq. 5.2.5-5.2.7; 5.2.7 is the variance), variance floored.
+    uint32_t k = 0;
+    for (uint32_t i = 0; i < m; ++i) {
+      if (Z[i] < 1e-4 * nf) continue;  // a component that lost its samples
+      a[k] = Z[i] / nf;
+      mu[k] = Zx[i] / Z[i];
+      v[k] = std::max(Zxx[i] / Z[i] - mu[k] * mu[k], vmin);
+      ++k;
+    }
+    if (k == 0) break;  // cannot happen (the weights sum to n); keep the last parameters
+    if (k < m) {
+      double t = 0;
+      for (uint32_t i = 0; i < k; ++i) t += a[i];
+      for (uint32_t i = 0; i < k; ++i) a[i] /= t;
+      m = k;
+    }
+    r.log_likelihood = ll;
+    if (ll - ll_prev < tol && it > 1) break;
+    ll_prev = ll;
+  }
+  r.iterations = it;
+  for (uint32_t i = 0; i < m; ++i) {
+    comp[i].weight = a[i];
+    comp[i].mean = mu[i] + shift;
+    comp[i].var = v[i];
+  }
+  *m_io = m;
+  return r;
+}
+
+void IntensityModel::carve(Arena& a, uint32_t max_samples) {
+  cap_ = max_samples;
+  samples_ = a.alloc<float>(max_samples);
+  lut_ = a.alloc<float>(kLutMax);
+  reset();
+}
+
+ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], double r, const IntensityModelSettings& s,
+                                const LutSpec& lut, char* msg, size_t msg_len) {
+  reset();
+  if (samples_ == nullptr || cap_ == 0) {
+    say(msg, msg_len, "intensity model: sample memory was not carved");
+    return ModelStatus::not_carved;
+  }
+  if (!(std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]) && std::isfinite(r) && r > 0)) {
+    say(msg, msg_len, "intensity model: the sphere is not finite");
+    return ModelStatus::bad_settings;
+  }
+  if (!roi.valid()) {
+    say(msg, msg_len, "intensity model: no smoothed region");
+    return ModelStatus::no_samples;
+  }
+  // Index box of the ball, intersected with the stored region.
+  double pc[3];
+  roi.world_to_index(c, pc);
+  int64_t lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    double dir[3] = {0, 0, 0}, row[3];
+    // |row a of the inverse affine| = index units per mm along a.
+    for (int b = 0; b < 3; ++b) {
+      dir[0] = dir[1] = dir[2] = 0;
+      dir[b] = 1;
+      double p[3];
+      roi.world_dir_to_index(dir, p);
+      row[b] = p[a];
+    }
+    const double g = r * std::sqrt(row[0] * row[0] + row[1] * row[1] + row[2] * row[2]);
+    const double l = std::ceil(pc[a] - g), h = std::floor(pc[a] + g) + 1;
+    lo[a] = l < double(roi.data_lo()[a]) ? roi.data_lo()[a] : int64_t(l);
+    hi[a] = h > double(roi.data_hi()[a]) ? roi.data_hi()[a] : int64_t(h);
+    if (lo[a] >= hi[a]) {
+      say(msg, msg_len, "intensity model: the sphere does not meet the smoothed region");
+      return ModelStatus::no_samples;
+    }
+  }
+  const double r2 = r * r;
+  auto inside = [&](int64_t i, int64_t j, int64_t k) {
+    const double p[3] = {double(i), double(j), double(k)};
+    double w[3];
+    roi.index_to_world(p, w);
+    const double d0 = w[0] - c[0], d1 = w[1] - c[1], d2 = w[2] - c[2];
+    return d0 * d0 + d1 * d1 + d2 * d2 <= r2;
+  };
+  uint64_t count = 0;
+  for (int64_t k = lo[2]; k < hi[2]; ++k)
+    for (int64_t j = lo[1]; j < hi[1]; ++j)
+      for (int64_t i = lo[0]; i < hi[0]; ++i) count += inside(i, j, k);
+  if (count == 0) {
+    say(msg, msg_len, "intensity model: no voxel centre inside the sphere");
+    return ModelStatus::no_samples;
+  }
+  // Uniform stride over the inside voxels in scan order: voxel m is taken when
+  // floor((m + 1) q) > floor(m q), q = cap / count.
+  const double q = count <= cap_ ? 1.0 : double(cap_) / double(count);
+  uint32_t n = 0;
+  uint64_t m = 0;
+  for (int64_t k = lo[2]; k < hi[2]; ++k)
+    for (int64_t j = lo[1]; j < hi[1]; ++j)
+      for (int64_t i = lo[0]; i < hi[0]; ++i) {
+        if (!inside(i, j, k)) continue;
+        const bool take = q >= 1.0 || std::floor(double(m + 1) * q) > std::floor(double(m) * q);
+        ++m;
+        if (take && n < cap_) samples_[n++] = roi.at(i, j, k);
+      }
+  const double range = roi.robust_high() - roi.robust_low();
+  const double rho = s.sigma_floor_fraction;
+  if (!(std::isfinite(rho) && rho >= 0)) {
+    say(msg, msg_len, "intensity model: sigma_floor_fraction must be >= 0");
+    return ModelStatus::bad_settings;
+  }
+  const double floor = std::sqrt(roi.noise_sigma() * roi.noise_sigma() + rho * range * rho * range);
+  return fit_samples(samples_, n, floor, s, lut, msg, msg_len);
+}
+
+ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma_floor,
+                                        const IntensityModelSettings& s, const LutSpec& lut, char* msg,
+                                        size_t msg_len) {
+  m_ = 0;
+  lut_n_ = 0;
+  if (n == 0 || x == nullptr) {
+    say(msg, msg_len, "intensity model: no samples");
+    return ModelStatus::no_samples;
+  }
+  if (!(std::isfinite(s.bin_radius) && s.bin_radius >= 0 && std::isfinite(s.bin_separation) &&
+        s.bin_separation >= 0 && std::isfinite(sigma_floor) && sigma_floor >= 0)) {
+    say(msg, msg_len, "intensity model: binning radius/separation and sigma floor must be finite and >= 0");
+    return ModelStatus::bad_settings;
+  }
+  n_ = n;
+  sigma_floor_ = sigma_floor;
+  double mean = 0, m2 = 0;
+  uint32_t nf = 0;
+  for (uint32_t j = 0; j < n; ++j)
+    if (std::isfinite(x[j])) mean += x[j], ++nf;
+  if (nf == 0) {
+    say(msg, msg_len, "intensity model: no finite sample");
+    return ModelStatus::no_samples;
+  }
+  mean /= nf;
+  for (uint32_t j = 0; j < n; ++j)
+    if (std::isfinite(x[j])) m2 += (x[j] - mean) * (x[j] - mean);
+  m2 /= nf;
+  const double sd = std::sqrt(m2);
+  // The scale of the automatic R and S: the floor, else the samples' spread.
+  const double ref = sigma_floor > 0 ? sigma_floor : (sd > 0 ? sd : 1.0);
+  BinningSettings b;
+  b.radius = s.bin_radius > 0 ? s.bin_radius : 2 * ref;
+  b.separation = s.bin_separation > 0 ? s.bin_separation : 4 * ref;
+  b.min_count = s.bin_min_count > 0 ? s.bin_min_count : std::max<uint32_t>(8, (n + 19) / 20);
+  if (b.min_count > n) b.min_count = n;
+  Bin bins[kMaxComponents];
+  bins_ = adaptive_binning(x, n, b, bins, kMaxComponents, mixing_stride(n));
+  uint32_t m = bins_ < kMaxComponents ? bins_ : kMaxComponents;
+  const double vfloor = sigma_floor * sigma_floor;
+  if (m == 0) {  // every bin fell under N_m: one component over all samples
+    comp_[0].weight = 1;
+    comp_[0].mean = mean;
+    comp_[0].var = std::max(m2, vfloor);
+    m = 1;
+  } else {
+    double total = 0;
+    for (uint32_t i = 0; i < m; ++i) total += bins[i].count;
+    for (uint32_t i = 0; i < m; ++i) {
+      comp_[i].weight = bins[i].count / total;
+      comp_[i].mean = bins[i].centroid;
+      comp_[i].var = std::max(bins[i].var, vfloor);
+    }
+  }
+  em_fit(x, n, comp_, &m, s.em_iterations, vfloor);
+  m_ = m;
+  normalise_and_tabulate(lut);
+  return ModelStatus::ok;
+}
+
+double IntensityModel::density(double v) const {
+  double s = 0;
+  for (uint32_t i = 0; i < m_; ++i) {
+    const double d = v - comp_[i].mean;
+    s += comp_[i].weight / std::sqrt(comp_[i].var) * std::exp(-0.5 * d * d / comp_[i].var);
+  }
+  return s;
+}
+
+double IntensityModel::g_direct(double v) const {
+  if (m_ == 0 || !(v == v)) return 0;
+  const double g = density(v) / peak_;
+  return g < 1 ? g : 1;
+}
+
+void IntensityModel::normalise_and_tabulate(const LutSpec& lut) {
+  // Peak of the mixture: a grid over mu +- 4 sigma and every mean, then a
+  // golden-section refinement around the best grid point.
+  double lo = INFINITY, hi = -INFINITY, best_v = comp_[0].mean, best = 0;
+  for (uint32_t i = 0; i < m_; ++i) {
+    const double sd = std::sqrt(comp_[i].var);
+    lo = std::min(lo, comp_[i].mean - 4 * sd);
+    hi = std::max(hi, comp_[i].mean + 4 * sd);
+    const double d = density(comp_[i].mean);
+    if (d > best) best = d, best_v = comp_[i].mean;
+  }
+  const int kGrid = 4096;
+  const double h = (hi - lo) / kGrid;
+  for (int t = 0; t <= kGrid; ++t) {
+    const double v = lo + h * t;
+    const double d = density(v);
+    if (d > best) best = d, best_v = v;
+  }
+  double a = best_v - h, b = best_v + h;
+  const double gr = 0.6180339887498949;
+  for (int it = 0; it < 60; ++it) {
+    const double c1 = b - gr * (b - a), c2 = a + gr * (b - a);
+    if (density(c1) > density(c2)) b = c2; else a = c1;
+  }
+  best = std::max(best, density(0.5 * (a + b)));
+  peak_ = best > 0 ? best : 1;
+
+  lut_n_ = 0;
+  if (lut_ == nullptr || !(std::isfinite(lut.slope) && lut.slope != 0 && std::isfinite(lut.intercept))) return;
+  double raw0;
+  uint32_t count;
+  switch (lut.type) {
+    case VoxelType::U8: raw0 = 0, count = 256; break;
+    case VoxelType::I16: raw0 = -32768, count = 65536; break;
+    case VoxelType::U16: raw0 = 0, count = 65536; break;
+    default: return;  // i32, f32, f64: direct evaluation
+  }
+  lut_v0_ = lut.slope * raw0 + lut.intercept;
+  lut_inv_step_ = 1.0 / lut.slope;
+  for (uint32_t i = 0; i < count; ++i) lut_[i] = float(g_direct(lut.slope * (raw0 + i) + lut.intercept));
+  lut_n_ = count;
+}
+
+}  // namespace ffseg

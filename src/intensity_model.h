@@ -1,0 +1,176 @@
+// Intensity statistics of the target organ (thesis 5.2.2): a 1-D Gaussian
+// mixture g(x) = sum_i a_i f_i(x) (eq. 5.2.3) of the smoothed voxels inside the
+// initial sphere. The number of components comes from adaptive binning
+// (Algorithm 2, [LL03]: radius R, separation S, minimum count N_m); the
+// parameters from EM (eq. 5.2.4-5.2.7) started at the bins.
+//
+// What g means here. The thesis thresholds the mixture density, h = [g(x) >= Gamma]
+// (eq. 5.3.2), but a density has units of 1/intensity, so a fixed Gamma would
+// mean different things on u8 MR and HU CT. ffseg divides by the mixture's peak:
+//   g(x) = sum_i a_i f_i(x) / max_y sum_i a_i f_i(y)   in [0, 1],
+// the thesis' g up to a constant, so thresholding it is eq. 5.3.2 with a
+// dimensionless Gamma. For one Gaussian g = exp(-z^2 / 2): Gamma = 0.05 keeps
+// |x - mu| < 2.45 sigma. A minor component of weight a sits at about a relative
+// to the main one, so Gamma also sets how rare a sub-class may be and still count.
+//
+// Variance floor (why the sphere's spread is not taken at face value): a small
+// sphere sees one spot of the organ; the organ as a whole also varies with
+// position (bias field, partial volume, tissue texture), and on near noise-free
+// data (Colin27: 1-3 grey levels in a sphere, 7-22 over the structure) the
+// sphere's own variance would stop the mesh almost at once. Every component's
+// variance is floored at
+//   sigma_floor^2 = sigma_n^2 + (rho * D)^2
+// with sigma_n the crop's robust noise estimate (SmoothedRoi::noise_sigma), D the
+// crop's robust intensity range p99 - p1 (the contrast scale of the scene) and
+// rho = sigma_floor_fraction (default 0.08): the tolerated within-organ
+// variation is a fixed fraction of the scene's contrast, plus the noise. With
+// Gamma = 0.05 an object then spans about +-2.45 * 0.08 = +-20% of the crop's
+// range around its mean: a neighbour must differ by more than that (T1 brain:
+// grey vs white matter is about 40% of a crop's range; CT: liver vs fat 160 HU
+// of a 230-500 HU range). rho = 0 takes the sphere at face value. The floor is
+// applied inside EM (a constrained maximum-likelihood fit), so a component
+// never narrows below it. rho is the one calibration knob of the model.
+//
+// Defaults for binning, derived from the same scale: R = 2 sigma_floor (a bin
+// holds values within 2 sigma of its centre), S = 4 sigma_floor (a new bin only
+// beyond 4 sigma of every existing one), N_m = max(8, 5% of the samples).
+//
+// Samples: the voxels of the smoothed crop whose centres lie in the sphere, at
+// most max_samples of them, subsampled deterministically (uniform stride in
+// scan order), held in the workspace. Binning visits them in a fixed
+// pseudo-random order (Weyl stride) so the first bins are not biased to one
+// side of the sphere.
+//
+// Evaluation: for integer voxel types (u8, i16, u16; any rescale) g is
+// tabulated at every representable value slope * raw + intercept (at most 65536
+// entries) and linearly interpolated in between (smoothed values are not
+// integers); exact at representable values. i32 and floats are evaluated directly.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "arena.h"
+#include "volume.h"
+
+namespace ffseg {
+
+class SmoothedRoi;
+
+struct Gaussian1 {
+  double weight = 0;  // a_i
+  double mean = 0;    // mu_i
+  double var = 0;     // sigma_i^2
+};
+
+struct Bin {
+  double centroid = 0;  // c_i
+  uint32_t count = 0;   // members in the last pass
+  double var = 0;       // members' variance about the centroid's mean
+};
+
+struct BinningSettings {
+  double radius = 0;       // R: a value joins its nearest bin within R
+  double separation = 0;   // S: a value opens a new bin at >= S from every bin
+  uint32_t min_count = 1;  // N_m: bins with fewer members are removed
+  uint32_t max_passes = 50;
+};
+
+// Algorithm 2 over x[0..n), visiting x in the order perm(s) = (s * stride) mod n
+// (stride coprime with n; 1 = as given). Writes at most max_bins bins, sorted by
+// centroid, and returns their number.
+uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, Bin* bins, uint32_t max_bins,
+                          uint32_t stride = 1);
+// A stride close to 0.618 n coprime with n (a well-mixed visiting order).
+uint32_t mixing_stride(uint32_t n);
+
+struct EmResult {
+  uint32_t iterations = 0;
+  double log_likelihood = 0;  // per sample, at the returned parameters
+};
+
+// EM for a 1-D mixture (E-step eq. 5.2.4, M-step eq. 5.2.5-5.2.7) from the
+// components in comp[0..*m); variances floored at var_floor. Components whose
+// weight falls below 1e-4 are dropped (*m shrinks, at least one stays).
+// Stops when the mean log-likelihood improves by less than tol.
+EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations, double var_floor,
+                double tol = 1e-9);
+
+struct IntensityModelSettings {
+  double bin_radius = 0;              // R, intensity units; 0: 2 sigma_floor
+  double bin_separation = 0;          // S, intensity units; 0: 4 sigma_floor
+  uint32_t bin_min_count = 0;         // N_m, samples; 0: max(8, 5% of the samples)
+  uint32_t em_iterations = 100;
+  double sigma_floor_fraction = 0.08; // rho, fraction of the crop's p1..p99 range
+};
+
+// Which values are representable (for the lookup table).
+struct LutSpec {
+  VoxelType type = VoxelType::F32;  // U8, I16, U16 get a table; others none
+  double slope = 1, intercept = 0;
+};
+
+enum class ModelStatus : int { ok = 0, no_samples, not_carved, bad_settings };
+
+class IntensityModel {
+ public:
+  static constexpr uint32_t kMaxComponents = 8;
+  static constexpr uint32_t kMaxBins = 64;
+  static constexpr uint32_t kLutMax = 65536;
+  static constexpr uint32_t kDefaultSamples = 65536;  // a suggested cap (256 KB)
+
+  // max_samples: cap on the voxels drawn from the sphere.
+  void carve(Arena& a, uint32_t max_samples);
+
+  // Fits the model to the smoothed crop's voxels inside the ball (c, r in mm);
+  // the crop should contain the ball (voxels outside it are not seen).
+  ModelStatus fit(const SmoothedRoi& roi, const double c[3], double r, const IntensityModelSettings& s,
+                  const LutSpec& lut, char* msg = nullptr, size_t msg_len = 0);
+  // Fits to given samples with a given sigma_floor (also sets the binning
+  // defaults). x may be this model's own sample buffer.
+  ModelStatus fit_samples(const float* x, uint32_t n, double sigma_floor, const IntensityModelSettings& s,
+                          const LutSpec& lut, char* msg = nullptr, size_t msg_len = 0);
+
+  bool valid() const { return m_ > 0; }
+  void reset() { m_ = 0; lut_n_ = 0; }
+  // Peak-normalised likelihood in [0, 1] (see the header note); table when there is one.
+  double g(double v) const {
+    if (lut_n_ > 0) {
+      const double f = (v - lut_v0_) * lut_inv_step_;
+      if (f >= 0 && f <= double(lut_n_ - 1)) {
+        const uint32_t i = uint32_t(f);
+        if (i + 1 >= lut_n_) return lut_[lut_n_ - 1];
+        const double fr = f - double(i);
+        return double(lut_[i]) + fr * (double(lut_[i + 1]) - double(lut_[i]));
+      }
+    }
+    return g_direct(v);
+  }
+  double g_direct(double v) const;
+
+  uint32_t components() const { return m_; }
+  const Gaussian1& component(uint32_t i) const { return comp_[i]; }
+  uint32_t bins_found() const { return bins_; }   // adaptive binning's count, before the cap
+  uint32_t sample_count() const { return n_; }
+  double sigma_floor() const { return sigma_floor_; }
+  bool has_lut() const { return lut_n_ > 0; }
+  uint32_t max_samples() const { return cap_; }
+  const float* samples() const { return samples_; }
+
+ private:
+  double density(double v) const;  // sum_i a_i f_i(v) * sqrt(2 pi)
+  void normalise_and_tabulate(const LutSpec& lut);
+
+  float* samples_ = nullptr;
+  float* lut_ = nullptr;
+  uint32_t cap_ = 0;
+  uint32_t n_ = 0;
+  uint32_t m_ = 0;
+  uint32_t bins_ = 0;
+  Gaussian1 comp_[kMaxComponents];
+  double peak_ = 1;
+  double sigma_floor_ = 0;
+  uint32_t lut_n_ = 0;
+  double lut_v0_ = 0, lut_inv_step_ = 1;
+};
+
+}  // namespace ffseg

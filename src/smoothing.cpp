@@ -1,0 +1,336 @@
+#include "smoothing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+namespace ffseg {
+
+namespace {
+
+// Deterministic, well-spread subsample: the s-th of ns draws from [0, count)
+// (Weyl sequence with the golden ratio; no aliasing with the grid's rows).
+int64_t weyl_index(uint32_t s, int64_t count) {
+  const double g = 0.6180339887498949;
+  double f = (double(s) + 0.5) * g;
+  f -= std::floor(f);
+  int64_t m = int64_t(f * double(count));
+  return m >= count ? count - 1 : m;
+}
+
+float nth_of(float* v, int64_t n, int64_t k) {
+  std::nth_element(v, v + k, v + n);
+  return v[k];
+}
+
+int64_t clamp_to_index(double v, int64_t lo, int64_t hi) {
+  if (!(v > double(lo))) return lo;  // also NaN
+  if (!(v < double(hi))) return hi;
+  return int64_t(v);
+}
+
+}  // namespace
+
+int64_t SmoothedRoi::plane_capacity(int64_t max_voxels) {
+  if (max_voxels <= 0) return 0;
+  // A plane of the region (longest axis slowest) holds P / max_extent <= P^(2/3) voxels.
+  int64_t c = int64_t(std::ceil(std::pow(double(max_voxels), 2.0 / 3.0))) + 2;
+  return c > max_voxels ? max_voxels : c;
+}
+
+void SmoothedRoi::carve(Arena& a, int64_t max_voxels) {
+  max_voxels_ = max_voxels > 0 ? max_voxels : 0;
+  plane_cap_ = plane_capacity(max_voxels_);
+  scratch_len_ = 2 * plane_cap_;
+  if (scratch_len_ < 4 * int64_t(kNoiseSamples)) scratch_len_ = 4 * int64_t(kNoiseSamples);
+  if (max_voxels_ == 0) scratch_len_ = 0;
+  buf_ = a.alloc<float>(size_t(max_voxels_));
+  scratch_ = a.alloc<float>(size_t(scratch_len_));
+  valid_ = false;
+}
+
+RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], const int64_t hi_in[3],
+                               const SmoothingSettings& s, char* msg, size_t msg_len) {
+  valid_ = false;
+  needed_ = 0;
+  if (!vol.valid()) {
+    if (msg && msg_len) std::snprintf(msg, msg_len, "smoothing: no valid volume");
+    return RoiStatus::bad_volume;
+  }
+  const int64_t* D = vol.dims();
+  const uint32_t margin = s.iterations;
+  int64_t ext[3];
+  for (int a = 0; a < 3; ++a) {
+    grid_[a] = D[a];
+    lo_[a] = std::max<int64_t>(0, std::min<int64_t>(lo_in[a], D[a]));
+    hi_[a] = std::max<int64_t>(0, std::min<int64_t>(hi_in[a], D[a]));
+    if (lo_[a] >= hi_[a]) {
+      if (msg && msg_len) std::snprintf(msg, msg_len, "smoothing: the region does not meet the grid along axis %d", a);
+      return RoiStatus::empty;
+    }
+    glo_[a] = lo_[a] - int64_t(margin) < 0 ? 0 : lo_[a] - int64_t(margin);
+    ghi_[a] = D[a] - hi_[a] < int64_t(margin) ? D[a] : hi_[a] + int64_t(margin);
+    ext[a] = ghi_[a] - glo_[a];
+  }
+  needed_ = ext[0] * ext[1] * ext[2];  // <= the grid's voxel count, which fits
+  if (needed_ > max_voxels_) {
+    if (msg && msg_len)
+      std::snprintf(msg, msg_len,
+                    "smoothing region %lld x %lld x %lld = %lld voxels (box grown by %u voxels for %u iterations) "
+                    "exceeds max_roi_voxels = %lld",
+                    (long long)ext[0], (long long)ext[1], (long long)ext[2], (long long)needed_, margin, margin,
+                    (long long)max_voxels_);
+    return RoiStatus::too_large;
+  }
+  if (buf_ == nullptr || scratch_ == nullptr) {
+    if (msg && msg_len) std::snprintf(msg, msg_len, "smoothing: region memory was not carved");
+    return RoiStatus::not_carved;
+  }
+  // Storage order: longest axis slowest (ties: the higher index axis), so a
+  // sweep plane is at most max_voxels^(2/3) voxels.
+  int slow = 2;
+  for (int a = 1; a >= 0; --a)
+    if (ext[a] > ext[slow]) slow = a;
+  ax_[2] = slow;
+  ax_[0] = slow == 0 ? 1 : 0;
+  ax_[1] = slow == 2 ? 1 : 2;
+  st_[ax_[0]] = 1;
+  st_[ax_[1]] = ext[ax_[0]];
+  st_[ax_[2]] = ext[ax_[0]] * ext[ax_[1]];
+  if (st_[ax_[2]] > plane_cap_) {  // cannot happen (see plane_capacity); kept as a guard
+    if (msg && msg_len) std::snprintf(msg, msg_len, "smoothing: sweep plane exceeds its scratch");
+    return RoiStatus::too_large;
+  }
+  for (int q = 0; q < 12; ++q) {
+    A_[q] = vol.affine()[q];
+    Ainv_[q] = vol.inverse()[q];
+  }
+  for (int a = 0; a < 3; ++a) h_[a] = vol.spacing()[a];
+
+  estimate_noise(vol);
+  // Copy the raw region in.
+  double vmin = INFINITY, vmax = -INFINITY;
+  int64_t idx[3];
+  float* out = buf_;
+  for (int64_t w = 0; w < ext[ax_[2]]; ++w) {
+    idx[ax_[2]] = glo_[ax_[2]] + w;
+    for (int64_t v = 0; v < ext[ax_[1]]; ++v) {
+      idx[ax_[1]] = glo_[ax_[1]] + v;
+      for (int64_t u = 0; u < ext[ax_[0]]; ++u) {
+        idx[ax_[0]] = glo_[ax_[0]] + u;
+        double x = vol.at(idx[0], idx[1], idx[2]);
+        if (!std::isfinite(x)) x = p_lo_;  // NaN / inf voxels (float volumes) read as the 1st percentile
+        x = x < -1e30 ? -1e30 : (x > 1e30 ? 1e30 : x);  // finite in float, and so are differences
+        vmin = x < vmin ? x : vmin;
+        vmax = x > vmax ? x : vmax;
+        *out++ = float(x);
+      }
+    }
+  }
+  vmin_ = vmin;
+  vmax_ = vmax;
+
+  double hmin = std::min(h_[0], std::min(h_[1], h_[2]));
+  double sig = std::max(sigma_n_, 1e-3 * (p_hi_ - p_lo_));
+  kappa_ = s.kappa > 0 ? s.kappa : (sig > 0 ? 2.0 * sig / hmin : 1.0);
+  double sum = 0;
+  for (int a = 0; a < 3; ++a) sum += 1.0 / (h_[a] * h_[a]);
+  dt_ = 0.75 / (2.0 * sum);
+  diffuse(s.iterations);
+  valid_ = true;
+  return RoiStatus::ok;
+}
+
+void SmoothedRoi::estimate_noise(const VolumeView& vol) {
+  int64_t e[3], count = 1;
+  for (int a = 0; a < 3; ++a) {
+    e[a] = hi_[a] - lo_[a];
+    count *= e[a];
+  }
+  const int64_t cap = count < int64_t(kNoiseSamples) ? count : int64_t(kNoiseSamples);
+  int64_t ns = 0;
+  float* vals = scratch_;
+  float* dif[3] = {scratch_ + cap, scratch_ + 2 * cap, scratch_ + 3 * cap};
+  int64_t nd[3] = {0, 0, 0};
+  for (int64_t s = 0; s < cap; ++s) {
+    int64_t m = cap == count ? s : weyl_index(uint32_t(s), count);
+    int64_t p[3];
+    p[0] = lo_[0] + m % e[0];
+    m /= e[0];
+    p[1] = lo_[1] + m % e[1];
+    p[2] = lo_[2] + m / e[1];
+    const double x = vol.at(p[0], p[1], p[2]);
+    if (!std::isfinite(x)) continue;  // non-finite voxels take no part in the statistics
+    vals[ns++] = float(x);
+    for (int a = 0; a < 3; ++a) {
+      if (p[a] + 1 >= hi_[a]) continue;
+      int64_t q[3] = {p[0], p[1], p[2]};
+      ++q[a];
+      const double d = std::fabs(vol.at(q[0], q[1], q[2]) - x);
+      if (std::isfinite(d)) dif[a][nd[a]++] = float(d);
+    }
+  }
+  if (ns == 0) {
+    p_lo_ = p_hi_ = 0;
+    sigma_n_ = 0;
+    return;
+  }
+  p_lo_ = nth_of(vals, ns, int64_t(std::floor(0.01 * double(ns - 1))));
+  p_hi_ = nth_of(vals, ns, int64_t(std::ceil(0.99 * double(ns - 1))));
+  double best = -1;
+  for (int a = 0; a < 3; ++a) {
+    if (nd[a] < 16) continue;
+    const double med = nth_of(dif[a], nd[a], nd[a] / 2);
+    const double sa = 1.4826 * med / std::sqrt(2.0);
+    if (best < 0 || sa < best) best = sa;
+  }
+  sigma_n_ = best < 0 ? 0 : best;
+}
+
+void SmoothedRoi::diffuse(uint32_t iterations) {
+  const int64_t E0 = ghi_[ax_[0]] - glo_[ax_[0]];
+  const int64_t E1 = ghi_[ax_[1]] - glo_[ax_[1]];
+  const int64_t E2 = ghi_[ax_[2]] - glo_[ax_[2]];
+  const int64_t P = E0 * E1;
+  float w[3], ik[3];
+  for (int s = 0; s < 3; ++s) {
+    const double h = h_[ax_[s]];
+    w[s] = float(dt_ / (h * h));                       // dt / h_a^2
+    ik[s] = float(1.0 / (h * h * kappa_ * kappa_));    // (1 / (h_a kappa))^2, eq. 5.2.2
+  }
+  for (uint32_t it = 0; it < iterations; ++it) {
+    for (int64_t q = 0; q < E2; ++q) {
+      // Old values: plane q in sv[q & 1], plane q - 1 in the other, plane q + 1
+      // still untouched in buf_; the new plane q is written in place.
+      float* cur = scratch_ + (q & 1) * P;
+      const float* prev = q > 0 ? scratch_ + ((q + 1) & 1) * P : nullptr;
+      float* outp = buf_ + q * P;
+      std::memcpy(cur, outp, size_t(P) * sizeof(float));
+      const float* next = q + 1 < E2 ? buf_ + (q + 1) * P : nullptr;
+      for (int64_t v = 0; v < E1; ++v) {
+        for (int64_t u = 0; u < E0; ++u) {
+          const int64_t i = u + v * E0;
+          const float c0 = cur[i];
+          float acc = 0, d;
+          // Flux c(|dI|/h) dI / h^2 through each face (eq. 5.2.1, 5.2.2).
+          if (u > 0) { d = cur[i - 1] - c0; acc += w[0] * d / (1.0f + d * d * ik[0]); }
+          if (u + 1 < E0) { d = cur[i + 1] - c0; acc += w[0] * d / (1.0f + d * d * ik[0]); }
+          if (v > 0) { d = cur[i - E0] - c0; acc += w[1] * d / (1.0f + d * d * ik[1]); }
+          if (v + 1 < E1) { d = cur[i + E0] - c0; acc += w[1] * d / (1.0f + d * d * ik[1]); }
+          if (prev) { d = prev[i] - c0; acc += w[2] * d / (1.0f + d * d * ik[2]); }
+          if (next) { d = next[i] - c0; acc += w[2] * d / (1.0f + d * d * ik[2]); }
+          outp[i] = c0 + acc;
+        }
+      }
+    }
+  }
+}
+
+bool SmoothedRoi::contains(const int64_t lo[3], const int64_t hi[3]) const {
+  if (!valid_) return false;
+  for (int a = 0; a < 3; ++a) {
+    const int64_t l = std::max<int64_t>(0, std::min<int64_t>(lo[a], grid_[a]));
+    const int64_t h = std::max<int64_t>(0, std::min<int64_t>(hi[a], grid_[a]));
+    if (l >= h) continue;  // nothing of it on the grid along this axis
+    if (l < lo_[a] || h > hi_[a]) return false;
+  }
+  return true;
+}
+
+bool SmoothedRoi::inside_index(const double p[3]) const {
+  for (int a = 0; a < 3; ++a)
+    if (!(p[a] >= double(glo_[a]) - 0.5 && p[a] <= double(ghi_[a]) - 0.5)) return false;
+  return true;
+}
+
+double SmoothedRoi::sample_index(const double p[3]) const {
+  int64_t q[3];
+  double f[3];
+  for (int a = 0; a < 3; ++a) {
+    double x = p[a];
+    const double l = double(glo_[a]), h = double(ghi_[a] - 1);
+    if (!(x > l)) x = l;  // NaN too
+    if (x > h) x = h;
+    const double fl = std::floor(x);
+    q[a] = int64_t(fl);
+    f[a] = x - fl;
+    if (q[a] >= ghi_[a] - 1) {
+      q[a] = ghi_[a] - 1;
+      f[a] = 0;
+    }
+  }
+  double acc = 0;
+  for (int c = 0; c < 8; ++c) {
+    const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+    const double wgt = (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
+    if (wgt == 0) continue;
+    acc += wgt * at(q[0] + dx, q[1] + dy, q[2] + dz);
+  }
+  return acc;
+}
+
+double SmoothedRoi::sample_linear(const double w[3]) const {
+  double p[3];
+  world_to_index(w, p);
+  return sample_index(p);
+}
+
+void SmoothedRoi::world_to_index(const double w[3], double p[3]) const {
+  for (int r = 0; r < 3; ++r)
+    p[r] = Ainv_[4 * r] * w[0] + Ainv_[4 * r + 1] * w[1] + Ainv_[4 * r + 2] * w[2] + Ainv_[4 * r + 3];
+}
+
+void SmoothedRoi::index_to_world(const double p[3], double w[3]) const {
+  for (int r = 0; r < 3; ++r)
+    w[r] = A_[4 * r] * p[0] + A_[4 * r + 1] * p[1] + A_[4 * r + 2] * p[2] + A_[4 * r + 3];
+}
+
+void SmoothedRoi::world_dir_to_index(const double w[3], double p[3]) const {
+  for (int r = 0; r < 3; ++r) p[r] = Ainv_[4 * r] * w[0] + Ainv_[4 * r + 1] * w[1] + Ainv_[4 * r + 2] * w[2];
+}
+
+namespace {
+
+void finish_box(const VolumeView& vol, const double pmin[3], const double pmax[3], double grow_mm, int64_t lo[3],
+                int64_t hi[3]) {
+  const double* Ai = vol.inverse();
+  const int64_t* D = vol.dims();
+  for (int a = 0; a < 3; ++a) {
+    const double row = std::sqrt(Ai[4 * a] * Ai[4 * a] + Ai[4 * a + 1] * Ai[4 * a + 1] + Ai[4 * a + 2] * Ai[4 * a + 2]);
+    const double g = (grow_mm > 0 ? grow_mm : 0) * row;
+    if (!(pmin[a] <= pmax[a])) {  // no finite point
+      lo[a] = 0;
+      hi[a] = 0;
+      continue;
+    }
+    lo[a] = clamp_to_index(std::floor(pmin[a] - g), -1, D[a] + 1);
+    hi[a] = clamp_to_index(std::ceil(pmax[a] + g) + 1, -1, D[a] + 1);
+  }
+}
+
+}  // namespace
+
+void roi_box_for_points(const VolumeView& vol, const double* x, uint32_t n, double grow_mm, int64_t lo[3],
+                        int64_t hi[3]) {
+  double pmin[3] = {INFINITY, INFINITY, INFINITY}, pmax[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (uint32_t v = 0; v < n; ++v) {
+    const double* w = x + 3 * size_t(v);
+    if (!(std::isfinite(w[0]) && std::isfinite(w[1]) && std::isfinite(w[2]))) continue;
+    double p[3];
+    vol.world_to_index(w, p);
+    for (int a = 0; a < 3; ++a) {
+      pmin[a] = p[a] < pmin[a] ? p[a] : pmin[a];
+      pmax[a] = p[a] > pmax[a] ? p[a] : pmax[a];
+    }
+  }
+  finish_box(vol, pmin, pmax, grow_mm, lo, hi);
+}
+
+void roi_box_for_ball(const VolumeView& vol, const double c[3], double r, int64_t lo[3], int64_t hi[3]) {
+  double p[3];
+  vol.world_to_index(c, p);
+  finish_box(vol, p, p, r, lo, hi);
+}
+
+}  // namespace ffseg

@@ -1,0 +1,497 @@
+// End-to-end tests of the `ffseg` command-line tool: the built binary (found
+// next to this test executable) runs on small synthetic NIfTI volumes.
+#include <doctest/doctest.h>
+
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "ffseg.h"
+#include "mesh_io.h"
+#include "nifti.h"
+#include "report_json.h"
+
+namespace fs = std::filesystem;
+using namespace ffseg_tools;
+
+namespace {
+
+std::string ffseg_binary() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path p = self.parent_path() / "ffseg";
+    if (fs::exists(p)) return p.string();
+  }
+  const fs::path fallback = fs::path(FFSEG_SOURCE_DIR) / "build" / "ffseg";
+  return fs::exists(fallback) ? fallback.string() : std::string();
+}
+
+struct Run {
+  int code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// A scratch directory, removed at the end of the test.
+struct Scratch {
+  std::string dir;
+  Scratch() {
+    char t[] = "/tmp/ffseg_cli_test_XXXXXX";
+    REQUIRE(mkdtemp(t) != nullptr);
+    dir = t;
+  }
+  ~Scratch() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  std::string operator/(const std::string& name) const { return dir + "/" + name; }
+  // Names in the directory (to see that nothing was left behind).
+  std::vector<std::string> entries() const {
+    std::vector<std::string> v;
+    for (const auto& e : fs::directory_iterator(dir)) v.push_back(e.path().filename().string());
+    return v;
+  }
+};
+
+// Runs `ffseg ARGS` (arguments are shell words; the test's paths need no quoting).
+Run ffseg(const Scratch& s, const std::string& args) {
+  static const std::string bin = ffseg_binary();
+  REQUIRE_MESSAGE(!bin.empty(), "the ffseg executable was not found next to the test binary: build the ffseg_cli target");
+  Run r;
+  const std::string out = s / ".stdout", err = s / ".stderr";
+  const std::string cmd = bin + " " + args + " >" + out + " 2>" + err + " </dev/null";
+  const int st = std::system(cmd.c_str());
+  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  std::remove(out.c_str());
+  std::remove(err.c_str());
+  return r;
+}
+
+// An anisotropic, translated grid holding balls (value 100 inside, 0 outside)
+// and the matching truth labels.
+struct Balls {
+  NiftiImage image, truth;
+};
+
+Balls make_balls(const std::vector<std::array<double, 4>>& balls, const std::vector<int>& labels) {
+  Balls b;
+  NiftiImage& img = b.image;
+  img.dims[0] = 40;
+  img.dims[1] = 36;
+  img.dims[2] = 24;
+  img.voxel_type = kNiftiVoxU8;
+  img.bytes_per_voxel = 1;
+  img.datatype = kNiftiDtUint8;
+  const double sp[3] = {1.2, 1.0, 1.5}, origin[3] = {-20, 10, -5};
+  double A[16] = {sp[0], 0, 0, origin[0], 0, sp[1], 0, origin[1], 0, 0, sp[2], origin[2], 0, 0, 0, 1};
+  std::memcpy(img.index_to_world, A, sizeof A);
+  for (int a = 0; a < 3; ++a) {
+    img.spacing[a] = sp[a];
+    img.pixdim[a + 1] = sp[a];
+  }
+  img.sform_code = 2;
+  img.which_affine = "sform";
+  img.xyzt_units = 2;
+  img.data.assign(img.voxel_count(), 0);
+  b.truth = nifti_make_label_image(img);
+  size_t idx = 0;
+  for (int k = 0; k < img.dims[2]; ++k)
+    for (int j = 0; j < img.dims[1]; ++j)
+      for (int i = 0; i < img.dims[0]; ++i, ++idx) {
+        const double p[3] = {origin[0] + sp[0] * i, origin[1] + sp[1] * j, origin[2] + sp[2] * k};
+        for (size_t o = 0; o < balls.size(); ++o) {
+          const double d = std::sqrt((p[0] - balls[o][0]) * (p[0] - balls[o][0]) +
+                                     (p[1] - balls[o][1]) * (p[1] - balls[o][1]) +
+                                     (p[2] - balls[o][2]) * (p[2] - balls[o][2]));
+          if (d <= balls[o][3]) {
+            img.data[idx] = 100;
+            b.truth.data[idx] = uint8_t(labels[o]);
+          }
+        }
+      }
+  return b;
+}
+
+void write(const std::string& path, const NiftiImage& img) {
+  std::string err;
+  REQUIRE_MESSAGE(nifti_write_file(path, img, &err), err);
+}
+
+Json parse_json(const std::string& text) {
+  Json j;
+  std::string err;
+  REQUIRE_MESSAGE(json_parse(text, &j, &err), err);
+  return j;
+}
+
+// Width and height from a PNG's IHDR chunk (0 if it is not a PNG).
+void png_size(const std::string& path, int* w, int* h) {
+  const std::string d = slurp(path);
+  *w = *h = 0;
+  static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (d.size() < 24 || std::memcmp(d.data(), sig, 8) != 0 || d.compare(12, 4, "IHDR") != 0) return;
+  const auto be32 = [&](size_t o) {
+    return int(uint32_t(uint8_t(d[o])) << 24 | uint32_t(uint8_t(d[o + 1])) << 16 |
+               uint32_t(uint8_t(d[o + 2])) << 8 | uint32_t(uint8_t(d[o + 3])));
+  };
+  *w = be32(16);
+  *h = be32(20);
+}
+
+const std::array<double, 4> kBall = {4.0, 27.0, 12.0, 9.0};  // centre (mm) and radius
+
+}  // namespace
+
+TEST_CASE("cli: segment a binary ball, every output written and right") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {5});
+  write(s / "ball.nii.gz", b.image);
+  write(s / "truth.nii.gz", b.truth);
+  const Run r = ffseg(s, "segment " + (s / "ball.nii.gz") +
+                             " --target binary --sphere 4,27,12,4 --mesh-resolution 17 --max-steps 20"
+                             " --names ball --truth " + (s / "truth.nii.gz") + " --truth-labels 5 --out " + (s / "out"));
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.err.find("ffseg: step 1/20") != std::string::npos);  // progress, plain lines (not a TTY)
+  CHECK(r.out.find("dice") != std::string::npos);
+
+  // The mesh: binary PLY, 6 n^2 vertices, a closed quad-split mesh.
+  MeshData mesh;
+  std::string err;
+  REQUIRE_MESSAGE(mesh_read_file(s / "out/ball.ply", MeshFormat::Ply, &mesh, &err), err);
+  CHECK(mesh.vertex_count() == 6 * 17 * 17);
+  CHECK(mesh.triangle_count() == 2 * (mesh.vertex_count() - 2));
+  CHECK(mesh.comment == "SPACE=RAS");
+  double rmean = 0;
+  for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+    const double dx = mesh.xyz[3 * v] - kBall[0], dy = mesh.xyz[3 * v + 1] - kBall[1], dz = mesh.xyz[3 * v + 2] - kBall[2];
+    rmean += std::sqrt(dx * dx + dy * dy + dz * dz);
+  }
+  rmean /= double(mesh.vertex_count());
+  CHECK(rmean == doctest::Approx(kBall[3]).epsilon(0.15));  // it grew from 4 mm to the ball
+
+  // The label map: the input grid, label 5 only.
+  NiftiImage lab;
+  REQUIRE_MESSAGE(nifti_read_file(s / "out/labels.nii.gz", &lab, &err), err);
+  for (int a = 0; a < 3; ++a) CHECK(lab.dims[a] == b.image.dims[a]);
+  for (int i = 0; i < 16; ++i) CHECK(lab.index_to_world[i] == doctest::Approx(b.image.index_to_world[i]));
+  size_t fives = 0, others = 0;
+  for (uint8_t v : lab.data) {
+    if (v == 5) ++fives;
+    else if (v != 0) ++others;
+  }
+  CHECK(fives > 1000);
+  CHECK(others == 0);
+
+  // The overlay: a PNG of sensible size.
+  int w = 0, h = 0;
+  png_size(s / "out/overlay.png", &w, &h);
+  CHECK(w > 300);
+  CHECK(h > 100);
+
+  // The report.
+  const Json rep = parse_json(slurp(s / "out/report.json"));
+  for (const char* key : {"ffseg_version", "input", "target", "steps", "converged", "objects", "time_ms",
+                          "workspace_bytes", "parameters", "config", "outputs"})
+    CHECK_MESSAGE(rep.get(key) != nullptr, key);
+  CHECK(rep.get("target")->as_string() == "binary");
+  CHECK(rep.get("steps")->as_number() >= 1);
+  CHECK(rep.get("steps")->as_number() <= 20);
+  CHECK(rep.get("workspace_bytes")->as_number() > 0);
+  CHECK(rep.get("parameters")->get("step_size") != nullptr);
+  CHECK(rep.get("time_ms")->get("stages")->get("solve") != nullptr);
+  CHECK(rep.get("time_ms")->get("total")->as_number() > 0);
+  const Json* dims = rep.get("input")->get("dims");
+  REQUIRE(dims);
+  CHECK((*dims)[0].as_number() == 40);
+  const Json& obj = (*rep.get("objects"))[0];
+  CHECK(obj.get("name")->as_string() == "ball");
+  CHECK(obj.get("label")->as_number() == 5);
+  CHECK(obj.get("vertices")->as_number() == 6 * 17 * 17);
+  const double true_ml = 4.0 / 3.0 * M_PI * std::pow(kBall[3], 3) / 1000.0;
+  CHECK(obj.get("volume_ml")->as_number() == doctest::Approx(true_ml).epsilon(0.2));
+  CHECK(obj.get("volume_ml")->as_number() == doctest::Approx(double(fives) * 1.8 / 1000.0));
+  const Json* m = obj.get("metrics");
+  REQUIRE(m);
+  CHECK(m->get("dice")->as_number() > 0.9);
+  CHECK(m->get("voe")->as_number() < 0.2);
+  CHECK(m->get("assd_mm")->as_number() < 1.0);
+  CHECK(m->get("hd95_mm")->is_number());
+
+  // eval of the written labels against the truth gives the report's Dice.
+  const Run e = ffseg(s, "eval " + (s / "out/labels.nii.gz") + " " + (s / "truth.nii.gz") + " --labels 5 --json");
+  INFO("eval stderr: " << e.err);
+  REQUIRE(e.code == 0);
+  const Json ej = parse_json(e.out);
+  REQUIRE(ej.get("labels")->size() == 1);
+  CHECK((*ej.get("labels"))[0].get("dice")->as_number() == doctest::Approx(m->get("dice")->as_number()));
+
+  // Nothing else was left in the scratch directory (no temporary directory).
+  for (const std::string& n : s.entries()) CHECK_MESSAGE((n == "out" || n.find(".nii.gz") != std::string::npos), n);
+}
+
+TEST_CASE("cli: two objects, voxel spheres, VTK meshes, default labels") {
+  Scratch s;
+  const std::array<double, 4> b1 = {-8.0, 25.0, 12.0, 7.0}, b2 = {14.0, 29.0, 12.0, 6.0};
+  const Balls b = make_balls({b1, b2}, {1, 2});
+  write(s / "two.nii", b.image);
+  write(s / "truth.nii", b.truth);
+  // Ball 2's centre in voxel indices: (14+20)/1.2, (29-10)/1, (12+5)/1.5.
+  const Run r = ffseg(s, "segment " + (s / "two.nii") + " --target=binary --sphere -8,25,12,3 --sphere-voxel " +
+                             "28.3333,19,11.3333,3 --mesh-resolution 9 --max-steps 20 --mesh-format vtk --quiet "
+                             "--truth " + (s / "truth.nii") + " --out " + (s / "out"));
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.err.empty());  // --quiet
+  MeshData m1, m2;
+  std::string err;
+  REQUIRE_MESSAGE(mesh_read_file(s / "out/object1.vtk", MeshFormat::Vtk, &m1, &err), err);
+  REQUIRE_MESSAGE(mesh_read_file(s / "out/object2.vtk", MeshFormat::Vtk, &m2, &err), err);
+  CHECK(m1.vertex_count() == 6 * 81);
+  NiftiImage lab;
+  REQUIRE(nifti_read_file(s / "out/labels.nii.gz", &lab, &err));
+  size_t n1 = 0, n2 = 0;
+  for (uint8_t v : lab.data) n1 += v == 1, n2 += v == 2;
+  CHECK(n1 > 500);
+  CHECK(n2 > 300);
+  const Json rep = parse_json(slurp(s / "out/report.json"));
+  REQUIRE(rep.get("objects")->size() == 2);
+  for (size_t k = 0; k < 2; ++k) {
+    const Json& o = (*rep.get("objects"))[k];
+    CHECK(o.get("label")->as_number() == double(k + 1));
+    CHECK(o.get("metrics")->get("dice")->as_number() > 0.85);
+  }
+  const Json* c2 = (*rep.get("objects"))[1].get("sphere")->get("center_mm");
+  CHECK((*c2)[0].as_number() == doctest::Approx(14.0).epsilon(1e-4));
+  CHECK((*c2)[2].as_number() == doctest::Approx(12.0).epsilon(1e-4));
+}
+
+TEST_CASE("cli: usage errors exit 2, bad input exits 3, and leave nothing behind") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {1});
+  write(s / "ball.nii.gz", b.image);
+  const std::string vol = s / "ball.nii.gz", out = s / "out";
+  const std::string ok_args = " --target binary --sphere 4,27,12,4 --mesh-resolution 5 --max-steps 2 --quiet";
+
+  struct Case {
+    std::string what;
+    std::string args;
+  };
+  const std::vector<Case> usage = {
+      {"no arguments", ""},
+      {"unknown command", "frobnicate"},
+      {"unknown option", "segment " + vol + ok_args + " --out " + out + " --bogus"},
+      {"missing --out", "segment " + vol + ok_args},
+      {"missing volume", "segment" + ok_args + " --out " + out},
+      {"no sphere", "segment " + vol + " --target binary --out " + out},
+      {"sphere with 3 numbers", "segment " + vol + " --sphere 1,2,3 --out " + out},
+      {"negative radius", "segment " + vol + " --sphere 1,2,3,-4 --out " + out},
+      {"sphere not a number", "segment " + vol + " --sphere 1,2,x,4 --out " + out},
+      {"sphere outside the grid", "segment " + vol + ok_args + " --sphere 900,0,0,3 --out " + out},
+      {"bad mesh format", "segment " + vol + ok_args + " --mesh-format off --out " + out},
+      {"bad target", "segment " + vol + " --sphere 4,27,12,4 --target magic --out " + out},
+      {"bad mesh resolution", "segment " + vol + ok_args + " --mesh-resolution 1 --out " + out},
+      {"unknown --param", "segment " + vol + ok_args + " --param nope=1 --out " + out},
+      {"out-of-range --param", "segment " + vol + ok_args + " --param step_size=7 --out " + out},
+      {"--param without =", "segment " + vol + ok_args + " --param step_size --out " + out},
+      {"names count", "segment " + vol + ok_args + " --names a,b --out " + out},
+      {"bad name", "segment " + vol + ok_args + " --names ../x --out " + out},
+      {"truth labels without truth", "segment " + vol + ok_args + " --truth-labels 1 --out " + out},
+      {"truth label absent", "segment " + vol + ok_args + " --truth " + vol + " --truth-labels 7 --out " + out},
+      {"info without volume", "info"},
+      {"eval with one file", "eval " + vol},
+      {"eval bad labels", "eval " + vol + " " + vol + " --labels 1:x"},
+  };
+  for (const Case& c : usage) {
+    CAPTURE(c.what);
+    const Run r = ffseg(s, c.args);
+    CHECK(r.code == 2);
+    CHECK(r.err.rfind("ffseg: error: ", 0) == 0);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);  // one line
+    CHECK_FALSE(fs::exists(out));
+  }
+
+  // Corrupt and truncated inputs: exit 3, no output directory, no temporary one.
+  {
+    std::ofstream(s / "garbage.nii.gz", std::ios::binary) << "\x1f\x8b\x08\x00 definitely not gzip";
+    const std::string whole = slurp(vol);
+    std::ofstream(s / "short.nii.gz", std::ios::binary) << whole.substr(0, whole.size() / 2);
+    std::ofstream(s / "empty.nii", std::ios::binary) << "";
+  }
+  for (const char* bad : {"garbage.nii.gz", "short.nii.gz", "empty.nii", "missing.nii"}) {
+    CAPTURE(bad);
+    const Run r = ffseg(s, "segment " + (s / bad) + ok_args + " --out " + out);
+    CHECK(r.code == 3);
+    CHECK(r.err.rfind("ffseg: error: cannot read ", 0) == 0);
+    CHECK_FALSE(fs::exists(out));
+    const Run i = ffseg(s, std::string("info ") + (s / bad));
+    CHECK(i.code == 3);
+  }
+  for (const std::string& n : s.entries()) CHECK_MESSAGE(n.find("ffseg-tmp") == std::string::npos, n);
+
+  // Truth on another grid: exit 3.
+  {
+    Balls other = make_balls({kBall}, {1});
+    other.truth.index_to_world[3] += 1.0;
+    write(s / "shifted.nii.gz", other.truth);
+    const Run r = ffseg(s, "segment " + vol + ok_args + " --truth " + (s / "shifted.nii.gz") + " --out " + out);
+    CHECK(r.code == 3);
+    CHECK(r.err.find("grids differ") != std::string::npos);
+    CHECK_FALSE(fs::exists(out));
+  }
+
+  // A non-empty output directory is refused without --force and replaced with it.
+  fs::create_directory(out);
+  std::ofstream(out + "/old.txt") << "old";
+  {
+    const Run r = ffseg(s, "segment " + vol + ok_args + " --out " + out);
+    CHECK(r.code == 2);
+    CHECK(r.err.find("--force") != std::string::npos);
+    CHECK(fs::exists(out + "/old.txt"));
+  }
+  {
+    const Run r = ffseg(s, "segment " + vol + ok_args + " --force --out " + out);
+    INFO("stderr: " << r.err);
+    CHECK(r.code == 0);
+    CHECK_FALSE(fs::exists(out + "/old.txt"));
+    CHECK(fs::exists(out + "/report.json"));
+  }
+  // An empty existing directory is fine without --force.
+  fs::remove_all(out);
+  fs::create_directory(out);
+  CHECK(ffseg(s, "segment " + vol + ok_args + " --out " + out).code == 0);
+  CHECK(fs::exists(out + "/object1.ply"));
+  for (const std::string& n : s.entries()) CHECK_MESSAGE(n.find("ffseg-") == std::string::npos, n);
+}
+
+TEST_CASE("cli: the default target, intensity, either works or says how to proceed") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {1});
+  write(s / "ball.nii.gz", b.image);
+  const Run r = ffseg(s, "segment " + (s / "ball.nii.gz") + " --sphere 4,27,12,4 --mesh-resolution 9 --max-steps 5 --out " + (s / "out"));
+  INFO("stderr: " << r.err);
+  if (r.code == 0) {
+    const Json rep = parse_json(slurp(s / "out/report.json"));
+    CHECK(rep.get("target")->as_string() == "intensity");
+  } else {
+    CHECK(r.code == 4);
+    CHECK(r.err.find("--target binary") != std::string::npos);
+    CHECK_FALSE(fs::exists(s / "out"));
+  }
+}
+
+TEST_CASE("cli: info, eval, help and version") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {3});
+  write(s / "ball.nii.gz", b.image);
+  write(s / "truth.nii.gz", b.truth);
+  size_t nonzero = 0;
+  for (uint8_t v : b.image.data) nonzero += v != 0;
+
+  const Run i = ffseg(s, "info " + (s / "ball.nii.gz"));
+  REQUIRE(i.code == 0);
+  CHECK(i.out.find("40 x 36 x 24") != std::string::npos);
+  CHECK(i.out.find("1.2 x 1 x 1.5 mm") != std::string::npos);
+  CHECK(i.out.find("sform") != std::string::npos);
+  CHECK(i.out.find("uint8") != std::string::npos);
+  CHECK(i.out.find("0 .. 100") != std::string::npos);
+  CHECK(i.out.find("non-zero:     " + std::to_string(nonzero) + " voxels") != std::string::npos);
+  CHECK(i.out.find("-20.0000") != std::string::npos);  // the affine's translation
+
+  // eval: identical maps, a:b pairs, the default label list, differing grids.
+  const Run same = ffseg(s, "eval " + (s / "truth.nii.gz") + " " + (s / "truth.nii.gz"));
+  REQUIRE(same.code == 0);
+  CHECK(same.out.find("dice") != std::string::npos);
+  CHECK(same.out.find("1.0000   0.0000     0.000     0.000") != std::string::npos);
+  const Run pair = ffseg(s, "eval " + (s / "truth.nii.gz") + " " + (s / "ball.nii.gz") + " --labels 3:100 --json");
+  REQUIRE(pair.code == 0);
+  const Json pj = parse_json(pair.out);
+  const Json& l0 = (*pj.get("labels"))[0];
+  CHECK(l0.get("pred_label")->as_number() == 3);
+  CHECK(l0.get("truth_label")->as_number() == 100);
+  CHECK(l0.get("dice")->as_number() == 1.0);
+  CHECK(l0.get("pred_voxels")->as_number() == double(nonzero));
+
+  Balls shifted = make_balls({kBall}, {3});
+  shifted.truth.dims[2] = 23;
+  shifted.truth.data.resize(shifted.truth.voxel_count());
+  write(s / "small.nii.gz", shifted.truth);
+  const Run diff = ffseg(s, "eval " + (s / "truth.nii.gz") + " " + (s / "small.nii.gz"));
+  CHECK(diff.code == 3);
+  CHECK(diff.err.find("grids differ") != std::string::npos);
+
+  const Run help = ffseg(s, "--help");
+  CHECK(help.code == 0);
+  CHECK(help.out.find("segment") != std::string::npos);
+  for (const char* cmd : {"segment", "info", "eval"}) {
+    const Run h = ffseg(s, std::string(cmd) + " --help");
+    CHECK(h.code == 0);
+    CHECK(h.out.rfind(std::string("usage: ffseg ") + cmd, 0) == 0);
+  }
+  const Run v = ffseg(s, "--version");
+  CHECK(v.code == 0);
+  CHECK(v.out.rfind("ffseg 0.", 0) == 0);
+}
+
+TEST_CASE("report_json: writer and parser agree") {
+  Json j = Json::object();
+  j.set("text", "quote \" backslash \\ newline \n tab \t bell \x07 utf8 \xc3\xa9");
+  j.set("int", int64_t(-1234567890123));
+  j.set("real", 0.1);
+  j.set("inf", std::numeric_limits<double>::infinity());
+  j.set("flag", true);
+  j.set("nothing", Json());
+  Json arr = Json::array();
+  arr.push(1);
+  arr.push(Json::object());
+  arr.push(Json::array());
+  j.set("list", std::move(arr));
+  j.set("int", 7);  // replaces in place
+  for (int indent : {0, 2}) {
+    const Json back = parse_json(j.dump(indent));
+    CHECK(back.get("text")->as_string() == j.get("text")->as_string());
+    CHECK(back.get("int")->as_number() == 7);
+    CHECK(back.get("real")->as_number() == 0.1);
+    CHECK(back.get("inf")->is_null());  // JSON has no infinity
+    CHECK(back.get("flag")->as_bool());
+    CHECK(back.get("nothing")->is_null());
+    CHECK(back.get("list")->size() == 3);
+    CHECK(back.items().front().first == "text");
+    CHECK(back.items()[1].first == "int");
+  }
+  Json u;
+  std::string err;
+  REQUIRE(json_parse("\"\\u00e9\\ud83d\\ude00\"", &u, &err));
+  CHECK(u.as_string() == "\xc3\xa9\xf0\x9f\x98\x80");
+  for (const char* bad : {"", "{", "[1,]", "{\"a\" 1}", "01", "1.", "\"\\x\"", "tru", "1 2", "\"\\ud800\""})
+    CHECK_FALSE_MESSAGE(json_parse(bad, &u, &err), bad);
+}
+
+TEST_CASE("cli: --param knows every ffseg_params field") {
+  // tools/cli/cmd_segment.cpp lists the fields by name (kParamFields). When a
+  // field is appended to ffseg_params, add it there and update this size.
+  CHECK_MESSAGE(sizeof(ffseg_params) == 80,
+                "ffseg_params changed: add the new field to kParamFields in tools/cli/cmd_segment.cpp");
+}

@@ -1,0 +1,622 @@
+// Feature stage of thesis chapter 5: Perona-Malik smoothing of a crop (5.2.1),
+// the intensity model (adaptive binning + EM, 5.2.2) and the grey-level
+// correspondence search (5.3), on synthetic volumes with known answers.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "arena.h"
+#include "intensity_model.h"
+#include "intensity_search.h"
+#include "smoothing.h"
+#include "volume.h"
+
+using namespace ffseg;
+
+namespace {
+
+// Deterministic normal deviates (splitmix64 + Box-Muller).
+struct Rng {
+  uint64_t s;
+  explicit Rng(uint64_t seed) : s(seed) {}
+  uint64_t next() {
+    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double uniform() { return (double(next() >> 11) + 0.5) / 9007199254740992.0; }
+  double normal() {
+    const double u = uniform(), v = uniform();
+    return std::sqrt(-2 * std::log(u)) * std::cos(6.283185307179586 * v);
+  }
+};
+
+// A contiguous volume (i fastest) of T with a diagonal affine.
+template <class T>
+struct TestVolume {
+  std::vector<T> data;
+  int64_t dims[3];
+  double spacing[3];
+  VolumeView view;
+  TestVolume(int64_t nx, int64_t ny, int64_t nz, double sx, double sy, double sz)
+      : data(size_t(nx * ny * nz)), dims{nx, ny, nz}, spacing{sx, sy, sz} {}
+  T& at(int64_t i, int64_t j, int64_t k) { return data[size_t(i + dims[0] * (j + dims[1] * k))]; }
+  void world(int64_t i, int64_t j, int64_t k, double w[3]) const {
+    w[0] = i * spacing[0];
+    w[1] = j * spacing[1];
+    w[2] = k * spacing[2];
+  }
+  bool finish(VoxelType type, double slope = 1, double intercept = 0) {
+    VolumeDesc d;
+    std::memset(&d, 0, sizeof d);
+    d.type = uint32_t(type);
+    d.data = data.data();
+    d.data_bytes = data.size() * sizeof(T);
+    d.offset = 0;
+    for (int a = 0; a < 3; ++a) d.dims[a] = dims[a];
+    d.strides[0] = sizeof(T);
+    d.strides[1] = int64_t(sizeof(T)) * dims[0];
+    d.strides[2] = int64_t(sizeof(T)) * dims[0] * dims[1];
+    double A[16] = {spacing[0], 0, 0, 0, 0, spacing[1], 0, 0, 0, 0, spacing[2], 0, 0, 0, 0, 1};
+    std::memcpy(d.index_to_world, A, sizeof A);
+    d.slope = slope;
+    d.intercept = intercept;
+    char msg[256];
+    return view.assign(d, msg, sizeof msg);
+  }
+};
+
+// Runs carve(Arena&) twice, measuring then over real memory, like the engine.
+struct Carved {
+  void* mem = nullptr;
+  size_t measured = 0, real = 0;
+  bool ok = false;
+  template <class F>
+  explicit Carved(F carve) {
+    Arena m;
+    carve(m);
+    measured = m.used();
+    mem = std::aligned_alloc(64, measured + 64);
+    Arena r(mem, measured);
+    carve(r);
+    real = r.used();
+    ok = r.ok() && m.ok();
+  }
+  ~Carved() { std::free(mem); }
+  Carved(const Carved&) = delete;
+  Carved& operator=(const Carved&) = delete;
+};
+
+std::vector<float> mixture_samples(uint32_t n, const std::vector<Gaussian1>& comps, uint64_t seed) {
+  Rng rng(seed);
+  std::vector<float> x;
+  x.reserve(n);
+  for (uint32_t j = 0; j < n; ++j) {
+    double u = rng.uniform(), acc = 0;
+    size_t c = 0;
+    for (; c + 1 < comps.size(); ++c) {
+      acc += comps[c].weight;
+      if (u < acc) break;
+    }
+    x.push_back(float(comps[c].mean + std::sqrt(comps[c].var) * rng.normal()));
+  }
+  return x;
+}
+
+// Edge phantom: 0 | 100 across the plane at index 31.5 of `axis`, plus noise sigma 10.
+TestVolume<float> edge_volume(int axis, uint64_t seed) {
+  TestVolume<float> v(64, 64, 12, 0.7, 0.7, 5.0);
+  Rng rng(seed);
+  const int64_t mid = axis == 2 ? 6 : 32;
+  for (int64_t k = 0; k < 12; ++k)
+    for (int64_t j = 0; j < 64; ++j)
+      for (int64_t i = 0; i < 64; ++i) {
+        const int64_t idx[3] = {i, j, k};
+        v.at(i, j, k) = float((idx[axis] >= mid ? 100.0 : 0.0) + 10.0 * rng.normal());
+      }
+  v.finish(VoxelType::F32);
+  return v;
+}
+
+double variance_of(const std::vector<double>& x) {
+  double m = 0, s = 0;
+  for (double v : x) m += v;
+  m /= double(x.size());
+  for (double v : x) s += (v - m) * (v - m);
+  return s / double(x.size());
+}
+
+}  // namespace
+
+TEST_CASE("smoothing: Perona-Malik reduces noise in flat regions and keeps a step edge (0.7 x 0.7 x 5 mm)") {
+  for (int axis : {0, 2}) {
+    CAPTURE(axis);
+    TestVolume<float> v = edge_volume(axis, 7 + uint64_t(axis));
+    SmoothedRoi roi;
+    Carved mem([&](Arena& a) { roi.carve(a, 64 * 64 * 12); });
+    REQUIRE(mem.ok);
+    const int64_t lo[3] = {0, 0, 0}, hi[3] = {64, 64, 12};
+    SmoothingSettings s;
+    s.iterations = 10;
+    REQUIRE(roi.compute(v.view, lo, hi, s) == RoiStatus::ok);
+    // The robust noise estimate finds the noise (structure only touches one axis).
+    CHECK(roi.noise_sigma() == doctest::Approx(10).epsilon(0.15));
+    CHECK(roi.kappa() == doctest::Approx(2 * roi.noise_sigma() / 0.7));
+    CHECK(roi.time_step() == doctest::Approx(0.75 / (2 * (2 / 0.49 + 1 / 25.0))));
+
+    const int64_t mid = axis == 2 ? 6 : 32;
+    // Flat regions: at least 3 voxels away from the edge and from the crop's faces along the edge axis.
+    std::vector<double> before, after;
+    for (int64_t k = 0; k < 12; ++k)
+      for (int64_t j = 0; j < 64; ++j)
+        for (int64_t i = 0; i < 64; ++i) {
+          const int64_t idx[3] = {i, j, k};
+          const int64_t e = idx[axis];
+          if (std::llabs(e - mid) < 3 || std::llabs(e - (mid - 1)) < 3) continue;
+          if (axis == 2) {
+            if (k == 0 || k == 11) continue;
+          }
+          before.push_back(v.at(i, j, k) - (e >= mid ? 100 : 0));
+          after.push_back(roi.at(i, j, k) - (e >= mid ? 100 : 0));
+        }
+    const double vb = variance_of(before), va = variance_of(after);
+    MESSAGE("axis " << axis << ": noise variance " << vb << " -> " << va);
+    CHECK(va < 0.25 * vb);  // mostly in-plane: diffusion across 5 mm slices is slow (dt / h_z^2 = 0.004)
+    // Edge position: the 50 crossing along the edge axis, per line, nearest the true edge.
+    const int64_t n_edge = axis == 2 ? 12 : 64;
+    const double truth = double(mid) - 0.5;
+    int lines = 0, within = 0;
+    double sum = 0;
+    for (int64_t a = 0; a < 64; ++a)
+      for (int64_t b = 0; b < (axis == 2 ? 64 : 12); ++b) {
+        double best = 1e9;
+        for (int64_t e = 0; e + 1 < n_edge; ++e) {
+          const float f0 = axis == 2 ? roi.at(a, b, e) : roi.at(e, a, b);
+          const float f1 = axis == 2 ? roi.at(a, b, e + 1) : roi.at(e + 1, a, b);
+          if ((f0 - 50) * (f1 - 50) <= 0 && f0 != f1) {
+            const double c = double(e) + (50 - f0) / (f1 - f0);
+            if (std::fabs(c - truth) < std::fabs(best - truth)) best = c;
+          }
+        }
+        ++lines;
+        sum += best;
+        within += std::fabs(best - truth) < 1.0;
+      }
+    CHECK(std::fabs(sum / lines - truth) < 0.2);
+    CHECK(within >= lines * 99 / 100);
+    // Maximum principle: no value leaves the raw range.
+    float mn = 1e30f, mx = -1e30f;
+    for (int64_t k = 0; k < 12; ++k)
+      for (int64_t j = 0; j < 64; ++j)
+        for (int64_t i = 0; i < 64; ++i) mn = std::min(mn, roi.at(i, j, k)), mx = std::max(mx, roi.at(i, j, k));
+    CHECK(mn >= roi.value_min());
+    CHECK(mx <= roi.value_max());
+  }
+}
+
+TEST_CASE("smoothing: a crop equals smoothing the whole volume inside its box") {
+  TestVolume<float> v = edge_volume(0, 11);
+  SmoothedRoi full, crop;
+  Carved m1([&](Arena& a) { full.carve(a, 64 * 64 * 12); });
+  Carved m2([&](Arena& a) { crop.carve(a, 40000); });
+  SmoothingSettings s;
+  s.iterations = 6;
+  s.kappa = 25;  // fixed: the automatic one depends on the crop's noise sample
+  const int64_t glo[3] = {0, 0, 0}, ghi[3] = {64, 64, 12};
+  const int64_t lo[3] = {20, 10, 3}, hi[3] = {45, 30, 9};
+  REQUIRE(full.compute(v.view, glo, ghi, s) == RoiStatus::ok);
+  REQUIRE(crop.compute(v.view, lo, hi, s) == RoiStatus::ok);
+  CHECK(crop.needed_voxels() == (25 + 12) * (20 + 12) * 12);  // grown by 6 voxels, clipped along k
+  CHECK(crop.contains(lo, hi));
+  const int64_t bigger[3] = {19, 10, 3};
+  CHECK_FALSE(crop.contains(bigger, hi));
+  double worst = 0;
+  for (int64_t k = lo[2]; k < hi[2]; ++k)
+    for (int64_t j = lo[1]; j < hi[1]; ++j)
+      for (int64_t i = lo[0]; i < hi[0]; ++i) worst = std::max(worst, double(std::fabs(crop.at(i, j, k) - full.at(i, j, k))));
+  CHECK(worst < 1e-3);
+  // Sampling: voxel centres give the stored values; beyond the region, the nearest voxel.
+  const double p[3] = {25, 15, 5};
+  CHECK(crop.sample_index(p) == doctest::Approx(crop.at(25, 15, 5)));
+  const double w[3] = {25 * 0.7, 15 * 0.7, 5 * 5.0};
+  CHECK(crop.sample_linear(w) == doctest::Approx(crop.at(25, 15, 5)));
+  const double far[3] = {1000, 15, 5};
+  CHECK_FALSE(crop.inside_index(far));
+  CHECK(crop.sample_index(far) == doctest::Approx(crop.at(crop.data_hi()[0] - 1, 15, 5)));
+}
+
+TEST_CASE("smoothing: a crop over max_voxels fails and names the size it needs") {
+  TestVolume<float> v = edge_volume(0, 3);
+  SmoothedRoi roi;
+  Carved mem([&](Arena& a) { roi.carve(a, 1000); });
+  REQUIRE(mem.ok);
+  SmoothingSettings s;
+  s.iterations = 2;
+  const int64_t lo[3] = {0, 0, 0}, hi[3] = {20, 20, 5};
+  char msg[512] = {};
+  CHECK(roi.compute(v.view, lo, hi, s, msg, sizeof msg) == RoiStatus::too_large);
+  CHECK(roi.needed_voxels() == 22 * 22 * 7);
+  CHECK(std::string(msg).find("3388") != std::string::npos);
+  CHECK(std::string(msg).find("1000") != std::string::npos);
+  CHECK_FALSE(roi.valid());
+  // Empty and off-grid boxes.
+  const int64_t olo[3] = {70, 0, 0}, ohi[3] = {80, 5, 5};
+  CHECK(roi.compute(v.view, olo, ohi, s) == RoiStatus::empty);
+  // Not carved over real memory.
+  SmoothedRoi bare;
+  CHECK(bare.compute(v.view, lo, hi, s) == RoiStatus::too_large);
+  const int64_t tiny_hi[3] = {1, 1, 1};
+  SmoothingSettings none;
+  none.iterations = 0;
+  CHECK(bare.compute(v.view, lo, tiny_hi, none) == RoiStatus::too_large);  // max_voxels 0
+}
+
+TEST_CASE("smoothing, intensity: non-finite voxels neither spread nor reach the model") {
+  TestVolume<float> v = edge_volume(0, 5);
+  v.at(10, 10, 5) = NAN;
+  v.at(40, 20, 6) = INFINITY;
+  v.at(41, 20, 6) = -INFINITY;
+  v.finish(VoxelType::F32);
+  SmoothedRoi roi;
+  Carved mem([&](Arena& a) { roi.carve(a, 64 * 64 * 12); });
+  const int64_t lo[3] = {0, 0, 0}, hi[3] = {64, 64, 12};
+  REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
+  bool finite = true;
+  for (int64_t k = 0; k < 12; ++k)
+    for (int64_t j = 0; j < 64; ++j)
+      for (int64_t i = 0; i < 64; ++i) finite = finite && std::isfinite(roi.at(i, j, k));
+  CHECK(finite);
+  CHECK(roi.noise_sigma() == doctest::Approx(10).epsilon(0.15));
+  IntensityModel model;
+  Carved mm([&](Arena& a) { model.carve(a, 4096); });
+  const double c[3] = {12 * 0.7, 10 * 0.7, 5 * 5.0};
+  REQUIRE(model.fit(roi, c, 6, IntensityModelSettings(), LutSpec()) == ModelStatus::ok);
+  CHECK(std::isfinite(model.component(0).mean));
+  std::vector<float> x = {1, NAN, 2, 3, INFINITY};
+  REQUIRE(model.fit_samples(x.data(), 5, 1.0, IntensityModelSettings(), LutSpec()) == ModelStatus::ok);
+  CHECK(model.component(0).mean == doctest::Approx(2));
+}
+
+TEST_CASE("smoothing, intensity: measuring pass and real pass carve the same bytes") {
+  for (int64_t maxv : {int64_t(1), int64_t(1000), int64_t(123457), int64_t(1) << 22}) {
+    for (uint32_t cap : {1u, 4096u, 65536u}) {
+      SmoothedRoi roi;
+      IntensityModel model;
+      Carved c([&](Arena& a) {
+        roi.carve(a, maxv);
+        model.carve(a, cap);
+      });
+      CHECK(c.ok);
+      CHECK(c.measured == c.real);
+      CHECK(c.measured >= size_t(maxv) * 4 + size_t(cap) * 4 + IntensityModel::kLutMax * 4);
+    }
+  }
+  // Plane capacity bounds every plane of every region that fits.
+  for (int64_t maxv : {int64_t(8), int64_t(1000), int64_t(999999)}) {
+    const int64_t cap = SmoothedRoi::plane_capacity(maxv);
+    for (int64_t a = 1; a <= 200; ++a)
+      for (int64_t b = a; b <= 200; ++b) {
+        const int64_t c = maxv / (a * b);
+        if (c < b) break;
+        CHECK(a * b <= cap);
+      }
+  }
+}
+
+TEST_CASE("binning: Algorithm 2 finds 1, 2 and 3 components") {
+  const uint32_t n = 6000;
+  BinningSettings s;
+  s.radius = 10;
+  s.separation = 20;
+  s.min_count = 60;
+  Bin bins[16];
+  {
+    auto x = mixture_samples(n, {{1.0, 100, 25}}, 1);
+    CHECK(adaptive_binning(x.data(), n, s, bins, 16, mixing_stride(n)) == 1);
+    CHECK(bins[0].centroid == doctest::Approx(100).epsilon(0.02));
+    // Visiting order matters for Algorithm 2: the mixing stride also copes with sorted input.
+    std::sort(x.begin(), x.end());
+    CHECK(adaptive_binning(x.data(), n, s, bins, 16, mixing_stride(n)) == 1);
+  }
+  {
+    auto x = mixture_samples(n, {{0.5, 100, 25}, {0.5, 160, 25}}, 2);
+    REQUIRE(adaptive_binning(x.data(), n, s, bins, 16, mixing_stride(n)) == 2);
+    CHECK(bins[0].centroid == doctest::Approx(100).epsilon(0.03));
+    CHECK(bins[1].centroid == doctest::Approx(160).epsilon(0.03));
+  }
+  {
+    auto x = mixture_samples(n, {{0.3, 50, 16}, {0.4, 100, 25}, {0.3, 170, 36}}, 3);
+    REQUIRE(adaptive_binning(x.data(), n, s, bins, 16, mixing_stride(n)) == 3);
+    CHECK(bins[0].centroid == doctest::Approx(50).epsilon(0.05));
+    CHECK(bins[1].centroid == doctest::Approx(100).epsilon(0.05));
+    CHECK(bins[2].centroid == doctest::Approx(170).epsilon(0.05));
+    // N_m removes a small cluster: 0.5% of the samples (about 30) far away.
+    auto y = mixture_samples(n, {{0.995, 100, 25}, {0.005, 200, 25}}, 4);
+    CHECK(adaptive_binning(y.data(), n, s, bins, 16, mixing_stride(n)) == 1);
+    s.min_count = 15;
+    CHECK(adaptive_binning(y.data(), n, s, bins, 16, mixing_stride(n)) == 2);
+  }
+  // The model's automatic settings (R = 2, S = 4 sigma_floor) on the same mixtures.
+  IntensityModel model;
+  Carved mem([&](Arena& a) { model.carve(a, 1024); });
+  IntensityModelSettings ms;
+  LutSpec none;
+  for (int k = 1; k <= 3; ++k) {
+    std::vector<Gaussian1> c;
+    for (int i = 0; i < k; ++i) c.push_back({1.0 / k, 100.0 + 60.0 * i, 16});
+    auto x = mixture_samples(n, c, 10 + uint64_t(k));
+    REQUIRE(model.fit_samples(x.data(), n, 4.0, ms, none) == ModelStatus::ok);
+    CHECK(model.bins_found() == uint32_t(k));
+    CHECK(model.components() == uint32_t(k));
+  }
+}
+
+TEST_CASE("EM: recovers the means, variances and weights of known mixtures") {
+  const uint32_t n = 40000;
+  {
+    auto x = mixture_samples(n, {{0.6, 100, 64}, {0.4, 140, 36}}, 21);
+    Gaussian1 c[2] = {{0.5, 90, 100}, {0.5, 150, 100}};
+    uint32_t m = 2;
+    EmResult r = em_fit(x.data(), n, c, &m, 500, 0);
+    REQUIRE(m == 2);
+    CHECK(r.iterations > 1);
+    CHECK(c[0].mean == doctest::Approx(100).epsilon(0.005));
+    CHECK(c[1].mean == doctest::Approx(140).epsilon(0.005));
+    CHECK(c[0].var == doctest::Approx(64).epsilon(0.06));
+    CHECK(c[1].var == doctest::Approx(36).epsilon(0.06));
+    CHECK(c[0].weight == doctest::Approx(0.6).epsilon(0.03));
+    CHECK(c[1].weight == doctest::Approx(0.4).epsilon(0.03));
+  }
+  {
+    // Through the model: binning initialises EM, no floor.
+    auto x = mixture_samples(n, {{0.25, 40, 9}, {0.5, 80, 25}, {0.25, 130, 49}}, 22);
+    IntensityModel model;
+    Carved mem([&](Arena& a) { model.carve(a, 16); });
+    IntensityModelSettings s;
+    s.bin_radius = 8;
+    s.bin_separation = 18;
+    s.em_iterations = 500;
+    REQUIRE(model.fit_samples(x.data(), n, 0.0, s, LutSpec()) == ModelStatus::ok);
+    REQUIRE(model.components() == 3);
+    const double mu[3] = {40, 80, 130}, var[3] = {9, 25, 49}, w[3] = {0.25, 0.5, 0.25};
+    for (uint32_t i = 0; i < 3; ++i) {
+      CHECK(model.component(i).mean == doctest::Approx(mu[i]).epsilon(0.01));
+      CHECK(model.component(i).var == doctest::Approx(var[i]).epsilon(0.08));
+      CHECK(model.component(i).weight == doctest::Approx(w[i]).epsilon(0.04));
+    }
+    // g is the peak-normalised mixture: 1 at the main mode, small far away.
+    CHECK(model.g(80) == doctest::Approx(1).epsilon(0.02));
+    CHECK(model.g(300) < 1e-6);
+  }
+  {
+    // The variance floor: a narrow sample (sd 1) is widened to the floor (sd 5).
+    auto x = mixture_samples(5000, {{1.0, 50, 1}}, 23);
+    IntensityModel model;
+    Carved mem([&](Arena& a) { model.carve(a, 16); });
+    REQUIRE(model.fit_samples(x.data(), 5000, 5.0, IntensityModelSettings(), LutSpec()) == ModelStatus::ok);
+    REQUIRE(model.components() == 1);
+    CHECK(model.component(0).var == doctest::Approx(25));
+    CHECK(model.g(50 + 2 * 5.0) == doctest::Approx(std::exp(-2.0)).epsilon(0.01));
+  }
+}
+
+TEST_CASE("intensity: the lookup table gives the direct g (u8, i16 with rescale)") {
+  IntensityModel model;
+  Carved mem([&](Arena& a) { model.carve(a, 16); });
+  IntensityModelSettings s;
+  {
+    auto x = mixture_samples(5000, {{0.7, 120, 100}, {0.3, 160, 64}}, 31);
+    LutSpec lut;
+    lut.type = VoxelType::U8;
+    REQUIRE(model.fit_samples(x.data(), 5000, 3.0, s, lut) == ModelStatus::ok);
+    CHECK(model.has_lut());
+    double worst = 0, worst_mid = 0;
+    for (int raw = 0; raw < 256; ++raw) {
+      worst = std::max(worst, std::fabs(model.g(raw) - model.g_direct(raw)));
+      if (raw < 255) worst_mid = std::max(worst_mid, std::fabs(model.g(raw + 0.37) - model.g_direct(raw + 0.37)));
+    }
+    CHECK(worst < 1e-6);
+    CHECK(worst_mid < 2e-3);
+    CHECK(model.g(-5) == model.g_direct(-5));  // beyond the table: direct
+  }
+  {
+    // CT: raw = (HU + 1024) / 0.5, i.e. slope 0.5, intercept -1024.
+    auto x = mixture_samples(5000, {{1.0, 60, 225}}, 32);
+    LutSpec lut;
+    lut.type = VoxelType::I16;
+    lut.slope = 0.5;
+    lut.intercept = -1024;
+    REQUIRE(model.fit_samples(x.data(), 5000, 0.0, s, lut) == ModelStatus::ok);
+    CHECK(model.has_lut());
+    double worst = 0, worst_mid = 0;
+    for (int raw = -32768; raw <= 32767; ++raw) {
+      const double v = 0.5 * raw - 1024;
+      worst = std::max(worst, std::fabs(model.g(v) - model.g_direct(v)));
+      worst_mid = std::max(worst_mid, std::fabs(model.g(v + 0.2) - model.g_direct(v + 0.2)));
+    }
+    CHECK(worst < 1e-6);
+    CHECK(worst_mid < 1e-3);
+    CHECK(model.g(60) > 0.95);
+    CHECK(model.g(-100) < 1e-6);
+  }
+  {
+    auto x = mixture_samples(100, {{1.0, 0.5, 0.01}}, 33);
+    REQUIRE(model.fit_samples(x.data(), 100, 0.0, s, LutSpec()) == ModelStatus::ok);
+    CHECK_FALSE(model.has_lut());  // floats: direct evaluation
+  }
+}
+
+namespace {
+
+// CT-like ball: 60 HU inside radius 15 mm, -100 HU outside, noise sigma 15 HU,
+// stored as i16 raw = HU + 1024 (slope 1, intercept -1024), 0.8 x 0.8 x 1.6 mm.
+struct CtBall {
+  TestVolume<int16_t> v{64, 64, 32, 0.8, 0.8, 1.6};
+  double c[3] = {25.6, 25.6, 25.6};
+  double R = 15;
+  CtBall() {
+    Rng rng(99);
+    for (int64_t k = 0; k < 32; ++k)
+      for (int64_t j = 0; j < 64; ++j)
+        for (int64_t i = 0; i < 64; ++i) {
+          double w[3];
+          v.world(i, j, k, w);
+          const double d = std::sqrt((w[0] - c[0]) * (w[0] - c[0]) + (w[1] - c[1]) * (w[1] - c[1]) +
+                                     (w[2] - c[2]) * (w[2] - c[2]));
+          const double hu = (d <= R ? 60.0 : -100.0) + 15.0 * rng.normal();
+          v.at(i, j, k) = int16_t(std::lround(hu + 1024));
+        }
+    v.finish(VoxelType::I16, 1.0, -1024.0);
+  }
+};
+
+// n points on a sphere (Fibonacci), with outward unit normals.
+void fibonacci(const double c[3], double r, uint32_t n, std::vector<double>* x, std::vector<double>* nrm) {
+  x->resize(3 * n);
+  nrm->resize(3 * n);
+  for (uint32_t i = 0; i < n; ++i) {
+    const double z = 1 - 2 * (i + 0.5) / n, rho = std::sqrt(1 - z * z);
+    const double phi = 2.399963229728653 * i;
+    const double d[3] = {rho * std::cos(phi), rho * std::sin(phi), z};
+    for (int a = 0; a < 3; ++a) {
+      (*nrm)[3 * i + a] = d[a];
+      (*x)[3 * i + a] = c[a] + r * d[a];
+    }
+  }
+}
+
+}  // namespace
+
+TEST_CASE("intensity: search finds a noisy CT ball's boundary from inside (outward) and outside (inward)") {
+  CtBall ball;
+  SmoothedRoi roi;
+  IntensityModel model;
+  Carved mem([&](Arena& a) {
+    roi.carve(a, int64_t(1) << 20);
+    model.carve(a, 4096);
+  });
+  REQUIRE(mem.ok);
+  const double range = 12;
+  int64_t lo[3], hi[3];
+  roi_box_for_ball(ball.v.view, ball.c, 20 + range, lo, hi);
+  SmoothingSettings ss;
+  char msg[256] = {};
+  REQUIRE(roi.compute(ball.v.view, lo, hi, ss, msg, sizeof msg) == RoiStatus::ok);
+  CHECK(roi.noise_sigma() == doctest::Approx(15).epsilon(0.2));
+  LutSpec lut;
+  lut.type = VoxelType::I16;
+  lut.slope = 1;
+  lut.intercept = -1024;
+  REQUIRE(model.fit(roi, ball.c, 8, IntensityModelSettings(), lut, msg, sizeof msg) == ModelStatus::ok);
+  CHECK(model.has_lut());
+  CHECK(model.sample_count() <= 4096);
+  CHECK(model.components() == 1);
+  CHECK(model.component(0).mean == doctest::Approx(60).epsilon(0.05));
+  MESSAGE("model: mean " << model.component(0).mean << " sd " << std::sqrt(model.component(0).var) << " floor "
+                         << model.sigma_floor() << " kappa " << roi.kappa());
+  CHECK(model.g(60) > 0.9);
+  CHECK(model.g(-100) < 0.05);
+
+  IntensitySearchSettings s;
+  s.range_mm = range;
+  for (double r0 : {10.0, 20.0}) {
+    CAPTURE(r0);
+    const uint32_t nv = 600;
+    std::vector<double> x, nrm, target(3 * nv);
+    std::vector<uint8_t> has(nv);
+    fibonacci(ball.c, r0, nv, &x, &nrm);
+    const uint32_t found = search_intensity(roi, model, nv, x.data(), nrm.data(), s, target.data(), has.data());
+    CHECK(found >= nv * 98 / 100);
+    double sum = 0, worst = 0;
+    uint32_t within = 0;
+    for (uint32_t v = 0; v < nv; ++v) {
+      if (!has[v]) continue;
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) d2 += (target[3 * v + a] - ball.c[a]) * (target[3 * v + a] - ball.c[a]);
+      const double err = std::fabs(std::sqrt(d2) - ball.R);
+      sum += err;
+      worst = std::max(worst, err);
+      within += err <= 0.8;
+    }
+    MESSAGE("from r = " << r0 << ": found " << found << "/" << nv << ", mean |error| " << sum / found
+                        << " mm, worst " << worst << " mm");
+    CHECK(sum / found < 0.4);
+    CHECK(within >= found * 95 / 100);  // within the finest voxel
+    CHECK(worst <= 1.6);                // within the coarsest voxel
+  }
+  // Out of range: from r = 2 a 6 mm search cannot reach the boundary.
+  {
+    std::vector<double> x, nrm, target(3 * 50);
+    std::vector<uint8_t> has(50);
+    fibonacci(ball.c, 2, 50, &x, &nrm);
+    IntensitySearchSettings shortr = s;
+    shortr.range_mm = 6;
+    CHECK(search_intensity(roi, model, 50, x.data(), nrm.data(), shortr, target.data(), has.data()) == 0);
+  }
+}
+
+TEST_CASE("intensity: on near noise-free data the variance floor lets the search reach the structure's boundary") {
+  // Colin27-like (PEERS.md): a u8 ball (radius 15 mm, 1 mm voxels) whose
+  // intensity ramps 88..112 across it, in a 160 background with a dark 30 slab
+  // nearby; noise sigma 0.5. A 4 mm sphere sees a spread of about 1.4 grey levels.
+  TestVolume<uint8_t> v(64, 64, 64, 1, 1, 1);
+  Rng rng(5);
+  const double c[3] = {32, 32, 32}, R = 15;
+  for (int64_t k = 0; k < 64; ++k)
+    for (int64_t j = 0; j < 64; ++j)
+      for (int64_t i = 0; i < 64; ++i) {
+        const double d = std::sqrt(double((i - 32) * (i - 32) + (j - 32) * (j - 32) + (k - 32) * (k - 32)));
+        const double val = d <= R ? 100 + 0.8 * (double(i) - 32) : (i < 12 ? 30 : 160);
+        v.at(i, j, k) = uint8_t(std::lround(val + 0.5 * rng.normal()));
+      }
+  REQUIRE(v.finish(VoxelType::U8));
+  SmoothedRoi roi;
+  IntensityModel model;
+  Carved mem([&](Arena& a) {
+    roi.carve(a, int64_t(1) << 19);
+    model.carve(a, IntensityModel::kDefaultSamples);
+  });
+  int64_t lo[3], hi[3];
+  roi_box_for_ball(v.view, c, 28, lo, hi);
+  REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
+  LutSpec lut;
+  lut.type = VoxelType::U8;
+  const uint32_t nv = 400;
+  std::vector<double> x, nrm, target(3 * nv);
+  std::vector<uint8_t> has(nv);
+  fibonacci(c, 8, nv, &x, &nrm);
+  IntensitySearchSettings s;
+  s.range_mm = 12;
+  auto reached = [&]() {
+    search_intensity(roi, model, nv, x.data(), nrm.data(), s, target.data(), has.data());
+    uint32_t ok = 0;
+    for (uint32_t q = 0; q < nv; ++q) {
+      if (!has[q]) continue;
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) d2 += (target[3 * q + a] - c[a]) * (target[3 * q + a] - c[a]);
+      ok += std::fabs(std::sqrt(d2) - R) <= 1.0;
+    }
+    return ok;
+  };
+  IntensityModelSettings ms;
+  REQUIRE(model.fit(roi, c, 4, ms, lut) == ModelStatus::ok);
+  const double sd = std::sqrt(model.component(0).var);
+  MESSAGE("floored model: sd " << sd << " (floor " << model.sigma_floor() << ", range " << roi.robust_low() << ".."
+                               << roi.robust_high() << ")");
+  const uint32_t with_floor = reached();
+  CHECK(with_floor >= nv * 95 / 100);
+  // Taking the sphere's spread at face value stops the mesh inside the structure.
+  ms.sigma_floor_fraction = 0;
+  REQUIRE(model.fit(roi, c, 4, ms, lut) == ModelStatus::ok);
+  MESSAGE("face-value model: sd " << std::sqrt(model.component(0).var));
+  const uint32_t face_value = reached();
+  MESSAGE("vertices reaching the boundary: " << with_floor << " with the floor, " << face_value << " without");
+  CHECK(face_value < nv / 2);
+}
