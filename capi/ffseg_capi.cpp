@@ -2,6 +2,7 @@
 // Every entry point validates its pointers, copies versioned structs through
 // min(struct_size, sizeof) and maps the core's Err onto ffseg_status.
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -80,7 +81,10 @@ ffseg_status convert_config(const ffseg_config* c, ffseg::Config* out, char* msg
 
 }  // namespace
 
-struct ffseg_engine {};  // opaque: the pointer is the ffseg::Engine in the workspace
+struct ffseg_engine {};
+
+// The first released ffseg_params layout ended after consecutive_background.
+static const size_t kParamsV1Size = offsetof(ffseg_params, consecutive_background) + sizeof(uint32_t);  // opaque: the pointer is the ffseg::Engine in the workspace
 
 extern "C" {
 
@@ -200,6 +204,13 @@ FFSEG_API void ffseg_params_init_default(ffseg_params* p) {
   p->convergence_mm = d.convergence_mm;
   p->diffusion_iterations = d.diffusion_iterations;
   p->consecutive_background = d.consecutive_background;
+  p->smoothing_iterations = d.smoothing_iterations;
+  p->bin_min_count = d.bin_min_count;
+  p->smoothing_kappa = d.smoothing_kappa;
+  p->intensity_gamma = d.intensity_gamma;
+  p->sigma_floor_fraction = d.sigma_floor_fraction;
+  p->bin_radius = d.bin_radius;
+  p->bin_separation = d.bin_separation;
 }
 
 #define FFSEG_REQUIRE_ENGINE(e)                                   \
@@ -218,7 +229,7 @@ FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p) 
   }
   ffseg_params full;
   ffseg_params_init_default(&full);
-  if (!read_versioned(p, sizeof(ffseg_params), &full)) {
+  if (!read_versioned(p, kParamsV1Size, &full)) {
     std::snprintf(en->message_buffer(), Engine::kMsgLen, "params.struct_size = %u is smaller than %zu",
                   p->struct_size, sizeof(ffseg_params));
     return FFSEG_ERR_STRUCT_SIZE;
@@ -235,6 +246,13 @@ FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p) 
   q.convergence_mm = full.convergence_mm;
   q.diffusion_iterations = full.diffusion_iterations;
   q.consecutive_background = full.consecutive_background;
+  q.smoothing_iterations = full.smoothing_iterations;
+  q.bin_min_count = full.bin_min_count;
+  q.smoothing_kappa = full.smoothing_kappa;
+  q.intensity_gamma = full.intensity_gamma;
+  q.sigma_floor_fraction = full.sigma_floor_fraction;
+  q.bin_radius = full.bin_radius;
+  q.bin_separation = full.bin_separation;
   return to_status(en->set_params(q));
 }
 

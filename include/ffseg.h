@@ -158,13 +158,27 @@ typedef struct ffseg_params {
   double lambda_uniform;        /* lambda_u, uniform edge length on contours; [0, 1e6]; default 0.25 */
   double step_size;             /* alpha: p_i = u_i + alpha (v_i - u_i); (0, 1]; default 0.5 */
   double flip_tau;              /* tau of eq. 4.2.1, edge flips when cos <= tau; [0, 1); default 0.2 */
-  double search_range_mm;       /* correspondence search along the normal, mm; (0, 1e4]; default 20 */
+  double search_range_mm;       /* correspondence search along the normal, mm; [0, 1e4]; 0 = automatic:
+                                   80 mm for binary targets, 20 mm for grey levels; default 0 */
   double search_step_mm;        /* sample spacing along the normal, mm; 0 = half the smallest
                                    voxel spacing; [0, 100]; default 0 */
   double convergence_mm;        /* converged when every object's mean displacement is below;
                                    [0, 100]; default 0.05 */
   uint32_t diffusion_iterations; /* rounds of displacement averaging (eq. 4.2.2); 0..100; default 6 */
   uint32_t consecutive_background; /* N of thesis 5.3; 1..64; default 3 */
+  /* Grey-level targets (FFSEG_TARGET_INTENSITY, thesis chapter 5): */
+  uint32_t smoothing_iterations; /* Perona-Malik steps on the cropped region (eq. 5.2.1); 0..100; default 5 */
+  uint32_t bin_min_count;        /* N_m of adaptive binning (Algorithm 2), samples; 0 = max(8, 5% of the
+                                    samples in the sphere); 0..2^31; default 0 */
+  double smoothing_kappa;        /* conductance contrast K of eq. 5.2.2, intensity per mm; 0 = from the
+                                    region's noise estimate; [0, 1e9]; default 0 */
+  double intensity_gamma;        /* Gamma: a sample is object when g(x) >= Gamma, g the intensity model's
+                                    likelihood divided by its peak; (0, 1); default 0.05 */
+  double sigma_floor_fraction;   /* lower bound on each Gaussian's standard deviation as a fraction of the
+                                    region's 1st-99th percentile range (a small sphere in clean data
+                                    under-estimates the spread); [0, 1]; default 0.08 */
+  double bin_radius;             /* R of Algorithm 2, intensity units; 0 = 2 x the sigma floor; [0, 1e9]; default 0 */
+  double bin_separation;         /* S of Algorithm 2, intensity units; 0 = 4 x the sigma floor; [0, 1e9]; default 0 */
 } ffseg_params;
 
 /* Fills *p with the defaults above and struct_size = sizeof(ffseg_params). */

@@ -9,6 +9,7 @@
 #include "correspondence.h"
 #include "diffusion.h"
 #include "flips.h"
+#include "intensity_search.h"
 #include "laplacian_system.h"
 #include "normals.h"
 #include "rasterize.h"
@@ -49,11 +50,18 @@ Err check_params(const Params& p, char* msg, size_t n) {
   else if (!in_range(p.lambda_uniform, 0, 1e6)) bad = "lambda_uniform [0, 1e6]";
   else if (!in_open_closed(p.step_size, 0, 1)) bad = "step_size (0, 1]";
   else if (!(in_range(p.flip_tau, 0, 1) && p.flip_tau < 1)) bad = "flip_tau [0, 1)";
-  else if (!in_open_closed(p.search_range_mm, 0, 1e4)) bad = "search_range_mm (0, 1e4]";
+  else if (!in_range(p.search_range_mm, 0, 1e4)) bad = "search_range_mm [0, 1e4]";
   else if (!in_range(p.search_step_mm, 0, 100)) bad = "search_step_mm [0, 100]";
   else if (!in_range(p.convergence_mm, 0, 100)) bad = "convergence_mm [0, 100]";
   else if (p.diffusion_iterations > 100) bad = "diffusion_iterations 0..100";
   else if (p.consecutive_background < 1 || p.consecutive_background > 64) bad = "consecutive_background 1..64";
+  else if (p.smoothing_iterations > 100) bad = "smoothing_iterations 0..100";
+  else if (p.bin_min_count > (1u << 31)) bad = "bin_min_count 0..2^31";
+  else if (!in_range(p.smoothing_kappa, 0, 1e9)) bad = "smoothing_kappa [0, 1e9]";
+  else if (!(in_range(p.intensity_gamma, 0, 1) && p.intensity_gamma > 0 && p.intensity_gamma < 1)) bad = "intensity_gamma (0, 1)";
+  else if (!in_range(p.sigma_floor_fraction, 0, 1)) bad = "sigma_floor_fraction [0, 1]";
+  else if (!in_range(p.bin_radius, 0, 1e9)) bad = "bin_radius [0, 1e9]";
+  else if (!in_range(p.bin_separation, 0, 1e9)) bad = "bin_separation [0, 1e9]";
   if (bad) {
     std::snprintf(msg, n, "params.%s: value out of range", bad);
     return Err::invalid_argument;
@@ -97,12 +105,12 @@ void Engine::layout(Arena& a) {
       real2)
     solver_failed_ = true;
   objects_ = a.alloc<Object>(cfg_.max_objects);
+  Object probe;  // measuring pass: carve through a throw-away object
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
-    double* x = a.alloc<double>(size_t(3) * mesh_.nv);
-    if (objects_) {
-      new (&objects_[i]) Object();
-      objects_[i].x = x;
-    }
+    Object* o = objects_ ? new (&objects_[i]) Object() : &probe;
+    o->x = a.alloc<double>(size_t(3) * mesh_.nv);
+    o->roi.carve(a, cfg_.max_roi_voxels);
+    o->model.carve(a, IntensityModel::kDefaultSamples);
   }
 }
 
@@ -137,6 +145,10 @@ Err Engine::set_volume(const VolumeDesc& d) {
   VolumeView v;
   if (!v.assign(d, msg_, kMsgLen)) return Err::invalid_volume;
   vol_ = v;
+  for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
+    objects_[i].roi.invalidate();
+    objects_[i].model.reset();
+  }
   return Err::ok;
 }
 
@@ -189,6 +201,8 @@ Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
   for (int d = 0; d < 3; ++d) o.center[d] = c[d];
   o.radius = r;
   o.placed = true;
+  o.roi.invalidate();
+  o.model.reset();
   return Err::ok;
 }
 
@@ -249,11 +263,6 @@ Err Engine::step(StepReport* r) {
     std::snprintf(msg_, kMsgLen, "step: no volume set (call ffseg_set_volume first)");
     return Err::misuse;
   }
-  if (params_.target_mode != TargetMode::binary) {
-    std::snprintf(msg_, kMsgLen, "step: target_mode %u is not available in this build",
-                  uint32_t(params_.target_mode));
-    return Err::not_implemented;
-  }
   *r = StepReport();
   uint32_t active = 0;
   bool all_converged = true;
@@ -275,6 +284,49 @@ Err Engine::step(StepReport* r) {
   return all_converged ? Err::converged : Err::ok;
 }
 
+// Chapter 5 features: the smoothed crop around the mesh (recomputed only when
+// the mesh outgrows it, with a search range of slack) and, once per sphere,
+// the intensity model of the voxels inside it.
+Err Engine::update_features(Object& o, StepReport* r) {
+  const uint64_t t0 = now_us();
+  const uint32_t nv = mesh_.nv;
+  const double range = params_.range_mm();
+  int64_t lo[3], hi[3];
+  if (!o.model.valid())
+    roi_box_for_ball(vol_, o.center, o.radius + range, lo, hi);
+  else
+    roi_box_for_points(vol_, o.x, nv, range, lo, hi);
+  if (!o.roi.valid() || !o.roi.contains(lo, hi)) {
+    if (o.model.valid()) roi_box_for_points(vol_, o.x, nv, 2 * range, lo, hi);
+    SmoothingSettings sm;
+    sm.iterations = params_.smoothing_iterations;
+    sm.kappa = o.model.valid() ? o.kappa : params_.smoothing_kappa;
+    const RoiStatus rs = o.roi.compute(vol_, lo, hi, sm, msg_, kMsgLen);
+    if (rs == RoiStatus::too_large) return Err::roi_too_large;
+    if (rs == RoiStatus::empty) {
+      std::snprintf(msg_, kMsgLen, "step: the mesh has left the volume");
+      return Err::sphere_outside;
+    }
+    if (rs != RoiStatus::ok) return Err::invalid_argument;
+    o.kappa = o.roi.kappa();
+  }
+  if (!o.model.valid()) {
+    IntensityModelSettings ms;
+    ms.bin_radius = params_.bin_radius;
+    ms.bin_separation = params_.bin_separation;
+    ms.bin_min_count = params_.bin_min_count;
+    ms.sigma_floor_fraction = params_.sigma_floor_fraction;
+    LutSpec lut;
+    lut.type = vol_.type();
+    lut.slope = vol_.slope();
+    lut.intercept = vol_.intercept();
+    const ModelStatus ms_st = o.model.fit(o.roi, o.center, o.radius, ms, lut, msg_, kMsgLen);
+    if (ms_st != ModelStatus::ok) return ms_st == ModelStatus::no_samples ? Err::sphere_outside : Err::invalid_argument;
+  }
+  r->stage_us[kStageFeatures] += now_us() - t0;
+  return Err::ok;
+}
+
 Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
   Object& o = objects_[oi];
   StepScratch& s = scratch_;
@@ -289,10 +341,23 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
 
   // 1. Correspondences along the normals.
   vertex_normals(mesh_, x, s.normals);
-  SearchSettings ss;
-  ss.range_mm = params_.search_range_mm;
-  ss.step_mm = params_.search_step_mm > 0 ? params_.search_step_mm : 0.5 * vol_.min_spacing();
-  const uint32_t found = search_binary(vol_, nv, x, s.normals, ss, s.target, s.has);
+  uint32_t found = 0;
+  if (params_.target_mode == TargetMode::binary) {
+    SearchSettings ss;
+    ss.range_mm = params_.range_mm();
+    ss.step_mm = params_.search_step_mm > 0 ? params_.search_step_mm : 0.5 * vol_.min_spacing();
+    found = search_binary(vol_, nv, x, s.normals, ss, s.target, s.has);
+  } else {
+    const Err fe = update_features(o, r);
+    if (fe != Err::ok) return fe;
+    t0 = now_us();
+    IntensitySearchSettings is;
+    is.range_mm = params_.range_mm();
+    is.step_mm = params_.search_step_mm;
+    is.gamma = params_.intensity_gamma;
+    is.consecutive_background = params_.consecutive_background;
+    found = search_intensity(o.roi, o.model, nv, x, s.normals, is, s.target, s.has);
+  }
   lap(kStageSearch);
 
   double moved = 0;

@@ -7,6 +7,8 @@
 #include "arena.h"
 #include "band_cholesky.h"
 #include "cubesphere.h"
+#include "intensity_model.h"
+#include "smoothing.h"
 #include "self_intersection.h"
 #include "volume.h"
 
@@ -45,11 +47,25 @@ struct Params {
   double lambda_uniform = 0.25;
   double step_size = 0.5;
   double flip_tau = 0.2;
-  double search_range_mm = 80.0;
+  double search_range_mm = 0.0;  // 0: kBinaryRange or kIntensityRange
   double search_step_mm = 0.0;
   double convergence_mm = 0.05;
   uint32_t diffusion_iterations = 20;
   uint32_t consecutive_background = 3;
+  uint32_t smoothing_iterations = 5;
+  uint32_t bin_min_count = 0;
+  double smoothing_kappa = 0;
+  double intensity_gamma = 0.05;
+  double sigma_floor_fraction = 0.08;
+  double bin_radius = 0;
+  double bin_separation = 0;
+
+  static constexpr double kBinaryRange = 80.0;
+  static constexpr double kIntensityRange = 20.0;
+  double range_mm() const {
+    if (search_range_mm > 0) return search_range_mm;
+    return target_mode == TargetMode::binary ? kBinaryRange : kIntensityRange;
+  }
 };
 
 // Checks a configuration; on failure writes the offending field into msg.
@@ -62,6 +78,11 @@ struct Object {
   double center[3] = {0, 0, 0};
   double radius = 0;
   double* x = nullptr;  // 3 * nv current vertex positions, mm
+  // Grey-level targets: the smoothed crop around the mesh and the intensity
+  // model learned from the initial sphere (fitted at the first step).
+  SmoothedRoi roi;
+  IntensityModel model;
+  double kappa = 0;  // the conductance used, kept when the crop is recomputed
 };
 
 enum Stage : int {
@@ -151,6 +172,7 @@ class Engine {
   void layout(Arena& a);
   Err check_object(uint32_t object, bool must_be_placed) const;
   Err step_object(uint32_t i, StepReport* r, uint32_t slot);
+  Err update_features(Object& o, StepReport* r);
 
   uint32_t magic_ = 0;
   Config cfg_;

@@ -54,6 +54,8 @@ class VolumeView {
   // Length in mm of one voxel step along each index axis.
   const double* spacing() const { return spacing_; }
   double min_spacing() const;
+  double slope() const { return slope_; }
+  double intercept() const { return intercept_; }
   const double* affine() const { return A_; }      // 3x4 row-major
   const double* inverse() const { return Ainv_; }  // 3x4 row-major
 

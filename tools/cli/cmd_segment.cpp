@@ -50,6 +50,10 @@ const ParamField kParamFields[] = {
     FFSEG_PF(search_range_mm, false),    FFSEG_PF(search_step_mm, false),
     FFSEG_PF(convergence_mm, false),     FFSEG_PF(diffusion_iterations, true),
     FFSEG_PF(consecutive_background, true),
+    FFSEG_PF(smoothing_iterations, true),   FFSEG_PF(bin_min_count, true),
+    FFSEG_PF(smoothing_kappa, false),       FFSEG_PF(intensity_gamma, false),
+    FFSEG_PF(sigma_floor_fraction, false),  FFSEG_PF(bin_radius, false),
+    FFSEG_PF(bin_separation, false),
 };
 #undef FFSEG_PF
 

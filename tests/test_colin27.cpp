@@ -1,0 +1,107 @@
+// Chapter 5 on real data: the Colin27 T1 MRI against its AAL labels, through
+// the C API. Protocol (PEERS.md): the sphere's centre is the label voxel
+// farthest from the label's border, its radius half that distance.
+#include <doctest/doctest.h>
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "ffseg.h"
+#include "metrics.h"
+#include "nifti.h"
+#include "test_util.h"
+
+using ffseg_test::EngineBox;
+
+namespace {
+
+const char* kCh2 = "/usr/share/mricron/templates/ch2.nii.gz";
+const char* kAal = "/usr/share/mricron/templates/aal.nii.gz";
+
+struct StructureResult {
+  int label = 0;
+  const char* name = "";
+  ffseg_tools::SegMetrics m{};
+  int steps = 0;
+  double ms = 0;
+  size_t intersections = 0;
+};
+
+ffseg_volume volume_of(const ffseg_tools::NiftiImage& img) {
+  const int64_t dims[3] = {img.dims[0], img.dims[1], img.dims[2]};
+  ffseg_volume v = ffseg_test::make_volume(img.data.data(), uint32_t(img.voxel_type), dims, img.index_to_world);
+  v.rescale_slope = img.scl_slope;
+  v.rescale_intercept = img.scl_inter;
+  return v;
+}
+
+}  // namespace
+
+// Runs one AAL structure; returns metrics against the label.
+StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg_tools::NiftiImage& aal, int label,
+                                  const char* name, uint32_t n, int max_steps) {
+  StructureResult res;
+  res.label = label;
+  res.name = name;
+  const size_t N = aal.data.size();
+  std::vector<uint8_t> truth(N);
+  for (size_t i = 0; i < N; ++i) truth[i] = aal.data[i] == label;
+  std::array<int, 3> ijk{};
+  double depth = 0;
+  REQUIRE(ffseg_tools::find_deepest_voxel(truth.data(), aal.dims, aal.spacing, &ijk, &depth));
+  double c[3];
+  for (int r = 0; r < 3; ++r)
+    c[r] = t1.index_to_world[4 * r] * ijk[0] + t1.index_to_world[4 * r + 1] * ijk[1] + t1.index_to_world[4 * r + 2] * ijk[2] +
+           t1.index_to_world[4 * r + 3];
+  EngineBox eb(1, n, int64_t(1) << 23);
+  REQUIRE(eb.e != nullptr);
+  ffseg_params p;
+  ffseg_params_init_default(&p);
+  p.target_mode = FFSEG_TARGET_INTENSITY;
+  if (const char* e = std::getenv("FFSEG_SIGF")) p.sigma_floor_fraction = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_GAMMA")) p.intensity_gamma = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_SR")) p.search_range_mm = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_ALPHA")) p.step_size = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_SMI")) p.smoothing_iterations = uint32_t(std::atoi(e));
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  ffseg_volume v = volume_of(t1);
+  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
+  REQUIRE(ffseg_init_sphere(eb.e, 0, c, depth / 2) == FFSEG_OK);
+  const auto t0 = std::chrono::steady_clock::now();
+  ffseg_step_info info;
+  info.struct_size = sizeof info;
+  for (int s = 0; s < max_steps; ++s) {
+    const ffseg_status st = ffseg_step(eb.e, &info);
+    INFO(ffseg_last_error(eb.e));
+    REQUIRE(st >= 0);
+    res.steps = s + 1;
+    if (st == FFSEG_CONVERGED) break;
+  }
+  res.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::vector<uint8_t> mask(N);
+  REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
+  res.m = ffseg_tools::compare_masks(mask.data(), truth.data(), aal.dims, aal.spacing);
+  return res;
+}
+
+TEST_CASE("colin27 experiment" * doctest::skip()) {
+  ffseg_tools::NiftiImage t1, aal;
+  std::string err;
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kAal, &aal, &err), err);
+  const std::pair<int, const char*> structures[] = {{73, "putamen L"}, {74, "putamen R"}, {77, "thalamus L"},
+                                                    {78, "thalamus R"}, {71, "caudate L"}, {72, "caudate R"},
+                                                    {37, "hippocampus L"}, {38, "hippocampus R"}};
+  std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
+  const char* only = std::getenv("FFSEG_ONLY");
+  for (auto& st : structures) {
+    if (only && std::string(only).find(std::to_string(st.first)) == std::string::npos) continue;
+    StructureResult r = segment_structure(t1, aal, st.first, st.second, 33, 100);
+    std::printf("| %s | %d | %.3f | %.3f | %.2f | %.2f | %d | %.0f |\n", r.name, r.label, r.m.dice, r.m.voe, r.m.assd_mm,
+                r.m.hd95_mm, r.steps, r.ms);
+  }
+}
