@@ -1,11 +1,18 @@
 #include "correspondence.h"
 
 #include <cmath>
+#include <cstring>
 
 namespace ffseg {
 
-double indicator_linear(const VolumeView& vol, const double p[3]) {
+namespace {
+
+// Trilinear interpolation of (voxel != 0), typed so that the inner loop reads
+// voxels directly; beyond the grid is background.
+template <class T>
+double indicator_t(const VolumeView& vol, const double p[3]) {
   const int64_t* D = vol.dims();
+  const int64_t* S = vol.strides();
   int64_t q[3];
   double f[3];
   for (int a = 0; a < 3; ++a) {
@@ -14,18 +21,23 @@ double indicator_linear(const VolumeView& vol, const double p[3]) {
     q[a] = int64_t(fl);
     f[a] = p[a] - fl;
   }
+  const unsigned char* base = vol.origin();
   double acc = 0;
   for (int c = 0; c < 8; ++c) {
     const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
-    const double w = (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
-    if (w == 0) continue;
-    if (vol.at_or(q[0] + dx, q[1] + dy, q[2] + dz, 0.0) != 0.0) acc += w;
+    const int64_t i = q[0] + dx, j = q[1] + dy, k = q[2] + dz;
+    if (i < 0 || j < 0 || k < 0 || i >= D[0] || j >= D[1] || k >= D[2]) continue;
+    T v;
+    std::memcpy(&v, base + i * S[0] + j * S[1] + k * S[2], sizeof(T));
+    if (v == T(0)) continue;
+    acc += (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
   }
   return acc;
 }
 
-uint32_t search_binary(const VolumeView& vol, uint32_t nv, const double* x, const double* normals,
-                       const SearchSettings& s, double* target, uint8_t* has) {
+template <class T>
+uint32_t search_binary_t(const VolumeView& vol, uint32_t nv, const double* x, const double* normals,
+                         const SearchSettings& s, double* target, uint8_t* has) {
   uint32_t found = 0;
   const int steps = int(std::ceil(s.range_mm / s.step_mm));
   for (uint32_t v = 0; v < nv; ++v) {
@@ -34,7 +46,7 @@ uint32_t search_binary(const VolumeView& vol, uint32_t nv, const double* x, cons
     double p0[3], dir[3];
     vol.world_to_index(u, p0);
     vol.world_dir_to_index(normals + 3 * size_t(v), dir);
-    const bool inside = indicator_linear(vol, p0) >= 0.5;
+    const bool inside = indicator_t<T>(vol, p0) >= 0.5;
     // Inside: look outward for the exit; outside: look inward for the entry.
     const double sgn = inside ? 1.0 : -1.0;
     double t_prev = 0;
@@ -43,15 +55,15 @@ uint32_t search_binary(const VolumeView& vol, uint32_t nv, const double* x, cons
       if (t > s.range_mm) t = s.range_mm;
       double p[3];
       for (int a = 0; a < 3; ++a) p[a] = p0[a] + sgn * t * dir[a];
-      const bool in = indicator_linear(vol, p) >= 0.5;
+      const bool in = indicator_t<T>(vol, p) >= 0.5;
       if (in != inside) {
         // Bisection on the bracket [t_prev, t] for the 0.5 level.
         double lo = t_prev, hi = t;
-        for (int it = 0; it < 8; ++it) {
+        for (int it = 0; it < 6; ++it) {
           const double mid = 0.5 * (lo + hi);
           double pm[3];
           for (int a = 0; a < 3; ++a) pm[a] = p0[a] + sgn * mid * dir[a];
-          if ((indicator_linear(vol, pm) >= 0.5) == inside) lo = mid; else hi = mid;
+          if ((indicator_t<T>(vol, pm) >= 0.5) == inside) lo = mid; else hi = mid;
         }
         const double tt = 0.5 * (lo + hi);
         for (int a = 0; a < 3; ++a) target[3 * size_t(v) + a] = u[a] + sgn * tt * normals[3 * size_t(v) + a];
@@ -63,6 +75,33 @@ uint32_t search_binary(const VolumeView& vol, uint32_t nv, const double* x, cons
     }
   }
   return found;
+}
+
+}  // namespace
+
+double indicator_linear(const VolumeView& vol, const double p[3]) {
+  switch (vol.type()) {
+    case VoxelType::U8: return indicator_t<uint8_t>(vol, p);
+    case VoxelType::I16: return indicator_t<int16_t>(vol, p);
+    case VoxelType::U16: return indicator_t<uint16_t>(vol, p);
+    case VoxelType::I32: return indicator_t<int32_t>(vol, p);
+    case VoxelType::F32: return indicator_t<float>(vol, p);
+    case VoxelType::F64: return indicator_t<double>(vol, p);
+  }
+  return 0;
+}
+
+uint32_t search_binary(const VolumeView& vol, uint32_t nv, const double* x, const double* normals,
+                       const SearchSettings& s, double* target, uint8_t* has) {
+  switch (vol.type()) {
+    case VoxelType::U8: return search_binary_t<uint8_t>(vol, nv, x, normals, s, target, has);
+    case VoxelType::I16: return search_binary_t<int16_t>(vol, nv, x, normals, s, target, has);
+    case VoxelType::U16: return search_binary_t<uint16_t>(vol, nv, x, normals, s, target, has);
+    case VoxelType::I32: return search_binary_t<int32_t>(vol, nv, x, normals, s, target, has);
+    case VoxelType::F32: return search_binary_t<float>(vol, nv, x, normals, s, target, has);
+    case VoxelType::F64: return search_binary_t<double>(vol, nv, x, normals, s, target, has);
+  }
+  return 0;
 }
 
 }  // namespace ffseg

@@ -392,7 +392,7 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
   lap(kStageDiffusion);
 
   // 5. Non-flipping self-intersections: shorten disagreeing displacements.
-  const uint32_t folds = prevent_folds(mesh_, x, s.disp, s.has, params_.flip_tau, s.folds);
+  const uint32_t folds = prevent_folds(mesh_, x, s.disp, s.has, params_.flip_tau, params_.step_size, s.folds);
   lap(kStageIntersection);
 
   // 6. Laplacian deformation: p_i = u_i + alpha d_i, weights d_i / d_mean.

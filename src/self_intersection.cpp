@@ -15,7 +15,7 @@ constexpr int kMaxPasses = 8;
 }
 
 uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const uint8_t* has, double tau,
-                       IntersectionScratch& s) {
+                       double alpha, IntersectionScratch& s) {
   const uint32_t nv = m.nv;
   // Cell size: the mean edge length, or half the longest displacement if
   // larger, so that a ball query spans a handful of cells per axis.
@@ -30,19 +30,24 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
   for (uint32_t v = 0; v < nv; ++v) s.mark[v] = 0;
   uint32_t shortened = 0;
   for (int pass = 0; pass < kMaxPasses; ++pass) {
-    double dmax = 0;
+    // This step moves u_i to u_i + alpha d_i: only that stretch can cross.
+    double dsum = 0;
+    uint32_t dn = 0;
     for (uint32_t v = 0; v < nv; ++v) {
       double len2 = 0;
       for (int a = 0; a < 3; ++a) {
-        const double dv = has[v] ? d[3 * size_t(v) + a] : 0.0;
+        const double dv = has[v] ? alpha * d[3 * size_t(v) + a] : 0.0;
         s.pts[3 * size_t(v) + a] = x[3 * size_t(v) + a];
         s.pts[3 * (size_t(nv) + v) + a] = x[3 * size_t(v) + a] + dv;
         len2 += dv * dv;
       }
-      dmax = std::fmax(dmax, std::sqrt(len2));
+      if (has[v]) {
+        dsum += std::sqrt(len2);
+        ++dn;
+      }
     }
-    if (!(dmax > 0)) break;
-    const double h = std::fmax(edge, 0.5 * dmax);
+    if (!(dsum > 0)) break;
+    const double h = std::fmax(edge, dsum / dn);
     s.grid.build(s.pts, 2 * nv, h);
     uint32_t conflicts = 0;
     for (uint32_t i = 0; i < nv; ++i) {
@@ -51,7 +56,7 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
       const double li = std::sqrt(di[0] * di[0] + di[1] * di[1] + di[2] * di[2]);
       if (!(li > 0)) continue;
       const uint32_t* nb = m.nbr + 4 * size_t(i);
-      s.grid.for_each_in_ball(x + 3 * size_t(i), li, [&](uint32_t id) {
+      s.grid.for_each_in_ball(x + 3 * size_t(i), alpha * li, [&](uint32_t id) {
         const uint32_t j = id < nv ? id : id - nv;
         if (j == i || !has[j] || j == nb[0] || j == nb[1] || j == nb[2] || j == nb[3]) return;
         const double* dj = d + 3 * size_t(j);

@@ -18,9 +18,11 @@ struct IntersectionScratch {
   void carve(Arena& a, uint32_t nv);
 };
 
-// d: 3 * nv displacements, valid where has[v]. Returns the number of vertices
-// whose displacement was shortened.
+// d: 3 * nv displacements, valid where has[v]; this step moves each vertex by
+// alpha d, so the search radius is alpha |d_i| (the thesis' D for the step
+// actually taken). Returns the number of vertices whose displacement was
+// shortened.
 uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const uint8_t* has, double tau,
-                       IntersectionScratch& s);
+                       double alpha, IntersectionScratch& s);
 
 }  // namespace ffseg

@@ -57,6 +57,9 @@ class VolumeView {
   double slope() const { return slope_; }
   double intercept() const { return intercept_; }
   const double* affine() const { return A_; }      // 3x4 row-major
+  // Raw access for typed inner loops: the address of voxel (0,0,0) and the strides.
+  const unsigned char* origin() const { return origin_; }
+  const int64_t* strides() const { return strides_; }
   const double* inverse() const { return Ainv_; }  // 3x4 row-major
 
   // True when the ball (centre c, radius r in mm) meets the grid's box
