@@ -96,7 +96,7 @@ fuzz-smoke: fuzz
 	    echo "fuzz-smoke: fuzz_$$t found a problem: see $(FUZZ_BUILD)/findings/ and $(FUZZ_BUILD)/smoke-$$t.log"; \
 	    exit 1; \
 	  fi; \
-	  grep -E "^#[0-9]+ +DONE" $(FUZZ_BUILD)/smoke-$$t.log || true; \
+	  grep -E "^#[0-9]+[[:space:]]+DONE" $(FUZZ_BUILD)/smoke-$$t.log || true; \
 	  grep -E "^stat::number_of_executed_units" $(FUZZ_BUILD)/smoke-$$t.log || true; \
 	done; echo "fuzz-smoke: no findings"
 

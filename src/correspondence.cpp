@@ -39,7 +39,16 @@ template <class T>
 uint32_t search_binary_t(const VolumeView& vol, uint32_t nv, const double* x, const double* normals,
                          const SearchSettings& s, double* target, uint8_t* has) {
   uint32_t found = 0;
-  const int steps = int(std::ceil(s.range_mm / s.step_mm));
+  // At most kMaxSamples samples per vertex: a tiny step must neither overflow
+  // the count nor stall the step.
+  constexpr double kMaxSamples = 4096;
+  double step_mm = s.step_mm;
+  double count = std::ceil(s.range_mm / step_mm);
+  if (!(count <= kMaxSamples)) {
+    count = kMaxSamples;
+    step_mm = s.range_mm / count;
+  }
+  const int steps = int(count);
   for (uint32_t v = 0; v < nv; ++v) {
     has[v] = 0;
     const double* u = x + 3 * size_t(v);
@@ -51,7 +60,7 @@ uint32_t search_binary_t(const VolumeView& vol, uint32_t nv, const double* x, co
     const double sgn = inside ? 1.0 : -1.0;
     double t_prev = 0;
     for (int i = 1; i <= steps; ++i) {
-      double t = i * s.step_mm;
+      double t = i * step_mm;
       if (t > s.range_mm) t = s.range_mm;
       double p[3];
       for (int a = 0; a < 3; ++a) p[a] = p0[a] + sgn * t * dir[a];

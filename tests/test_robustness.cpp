@@ -356,7 +356,7 @@ std::vector<Case> malformed_cases() {
       {"params: lambda_laplacian 1e6 + 1", [] { return params_case([](ffseg_params& p) { p.lambda_laplacian = 1e6 + 1; }); }, FFSEG_ERR_INVALID_ARGUMENT, "lambda_laplacian"},
       {"params: step_size Inf", [] { return params_case([](ffseg_params& p) { p.step_size = INFINITY; }); }, FFSEG_ERR_INVALID_ARGUMENT, "step_size"},
       {"params: flip_tau 1", [] { return params_case([](ffseg_params& p) { p.flip_tau = 1; }); }, FFSEG_ERR_INVALID_ARGUMENT, "flip_tau"},
-      {"params: search_range_mm 0", [] { return params_case([](ffseg_params& p) { p.search_range_mm = 0; }); }, FFSEG_ERR_INVALID_ARGUMENT, "search_range_mm"},
+      {"params: search_range_mm -1", [] { return params_case([](ffseg_params& p) { p.search_range_mm = -1; }); }, FFSEG_ERR_INVALID_ARGUMENT, "search_range_mm"},
       {"params: search_step_mm 101", [] { return params_case([](ffseg_params& p) { p.search_step_mm = 101; }); }, FFSEG_ERR_INVALID_ARGUMENT, "search_step_mm"},
       {"params: convergence_mm -1", [] { return params_case([](ffseg_params& p) { p.convergence_mm = -1; }); }, FFSEG_ERR_INVALID_ARGUMENT, "convergence_mm"},
       {"params: diffusion_iterations 101", [] { return params_case([](ffseg_params& p) { p.diffusion_iterations = 101; }); }, FFSEG_ERR_INVALID_ARGUMENT, "diffusion_iterations"},

@@ -1,0 +1,286 @@
+// libFuzzer target "volume": an arbitrary volume descriptor over honest voxel
+// bytes, then the whole pipeline through the C API.
+//
+// Input layout (little-endian, read from the front; missing bytes read as 0):
+//   u8  type      voxel_type = type % 8 (0 and 7 are invalid on purpose)
+//   u8  flags     bit0 raw dims      (3 x i64)   else 3 x u8: dims = 1 + v % 16
+//                 bit1 raw strides   (3 x i64)   else contiguous from a layout byte
+//                 bit2 raw offset    (i64)       else the offset the layout needs
+//                 bit3 raw affine    (16 x f64)  else spacing/rotation/translation bytes
+//                 bit4 raw rescale   (2 x f64)   else slope 1, intercept 0
+//                 bit5 raw sphere    (4 x f64)   else centre/radius bytes
+//                 bit6 params        (6 bytes)   else the defaults
+//                 bit7 re-set a broken copy of the descriptor after the steps
+//   u8  mesh      mesh_resolution = 2 + mesh % 7   (2..8)
+//   u8  steps     ffseg_step calls = steps % 5
+//   ...  the fields the flags select, in the order above
+//   rest          the voxel bytes: data_bytes is exactly their count
+//
+// The voxels are copied into a heap block of exactly that size, so ASan
+// reports any read outside [data, data + data_bytes). Checked invariants: every
+// call returns a documented status; a refused volume leaves a message and no
+// volume; accepted volumes can be sampled at their 8 corner voxels; meshes have
+// 6 n^2 finite vertices; rasterized masks hold only 0 and 1.
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "ffseg.h"
+
+namespace {
+
+struct Reader {
+  const uint8_t* p;
+  size_t n;
+  template <class T>
+  T take() {
+    T v;
+    std::memset(&v, 0, sizeof v);
+    const size_t k = n < sizeof v ? n : sizeof v;
+    std::memcpy(&v, p, k);
+    p += k;
+    n -= k;
+    return v;
+  }
+};
+
+[[noreturn]] void finding(const char* what, ffseg_status st) {
+  std::fprintf(stderr, "fuzz_volume: %s (status %d)\n", what, int(st));
+  std::abort();
+}
+
+void expect_one_of(ffseg_status st, std::initializer_list<ffseg_status> ok, const char* what) {
+  for (ffseg_status s : ok)
+    if (s == st) return;
+  finding(what, st);
+}
+
+size_t type_size(uint32_t t) {
+  switch (t) {
+    case FFSEG_U8: return 1;
+    case FFSEG_I16: case FFSEG_U16: return 2;
+    case FFSEG_I32: case FFSEG_F32: return 4;
+    case FFSEG_F64: return 8;
+    default: return 1;
+  }
+}
+
+struct Engine {
+  void* ws = nullptr;
+  ffseg_engine* e = nullptr;
+  explicit Engine(uint32_t n) {
+    ffseg_config c;
+    ffseg_config_init_default(&c);
+    c.max_objects = 2;
+    c.mesh_resolution = n;
+    c.max_roi_voxels = int64_t(1) << 16;
+    size_t bytes = 0;
+    if (ffseg_workspace_size(&c, &bytes) != FFSEG_OK) finding("workspace_size refused a valid config", -1);
+    if (posix_memalign(&ws, 64, bytes) != 0) std::abort();
+    const ffseg_status st = ffseg_create(&c, ws, bytes, &e);
+    if (st != FFSEG_OK) finding("create failed with the exact size", st);
+  }
+  ~Engine() {
+    ffseg_destroy(e);
+    std::free(ws);
+  }
+};
+
+void to_world(const double A[16], const double ijk[3], double w[3]) {
+  for (int r = 0; r < 3; ++r) w[r] = A[4 * r] * ijk[0] + A[4 * r + 1] * ijk[1] + A[4 * r + 2] * ijk[2] + A[4 * r + 3];
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  Reader in{data, size};
+  const uint32_t type = in.take<uint8_t>() % 8;
+  const uint8_t flags = in.take<uint8_t>();
+  const uint32_t n = 2 + in.take<uint8_t>() % 7;
+  const int nsteps = in.take<uint8_t>() % 5;
+  const int64_t es = int64_t(type_size(type));
+
+  ffseg_volume v;
+  std::memset(&v, 0, sizeof v);
+  v.struct_size = sizeof v;
+  v.voxel_type = type;
+
+  // Dimensions.
+  if (flags & 1) {
+    for (int a = 0; a < 3; ++a) v.dims[a] = in.take<int64_t>();
+  } else {
+    for (int a = 0; a < 3; ++a) v.dims[a] = 1 + in.take<uint8_t>() % 16;
+  }
+  // Strides: raw, or a contiguous layout with optional flipped axes, padded
+  // rows and a permuted axis order.
+  const bool small_dims = v.dims[0] >= 1 && v.dims[0] <= 4096 && v.dims[1] >= 1 && v.dims[1] <= 4096 &&
+                          v.dims[2] >= 1 && v.dims[2] <= 4096;
+  int64_t natural_offset = 0;
+  if (flags & 2) {
+    for (int a = 0; a < 3; ++a) v.strides[a] = in.take<int64_t>();
+  } else {
+    const uint8_t layout = in.take<uint8_t>();
+    if (small_dims) {
+      static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+      const int* order = perms[(layout >> 4) % 6];
+      int64_t step = es;
+      for (int x = 0; x < 3; ++x) {
+        const int a = order[x];
+        v.strides[a] = step;
+        step *= v.dims[a];
+        if (x == 0 && (layout & 8)) step += es;  // one padding voxel per row
+      }
+      for (int a = 0; a < 3; ++a)
+        if (layout & (1 << a)) {
+          natural_offset += v.strides[a] * (v.dims[a] - 1);
+          v.strides[a] = -v.strides[a];
+        }
+    }
+  }
+  v.offset = (flags & 4) ? in.take<int64_t>() : natural_offset;
+
+  // Affine.
+  if (flags & 8) {
+    for (int q = 0; q < 16; ++q) v.index_to_world[q] = in.take<double>();
+  } else {
+    double sp[3];
+    for (int a = 0; a < 3; ++a) sp[a] = 0.25 + 0.25 * (in.take<uint8_t>() % 16);
+    const double ang = in.take<uint8_t>() * (M_PI / 128);
+    const double c = std::cos(ang), s = std::sin(ang);
+    const double R[9] = {c, -s, 0, s * 0.6, c * 0.6, -0.8, s * 0.8, c * 0.8, 0.6};
+    for (int r = 0; r < 3; ++r) {
+      for (int a = 0; a < 3; ++a) v.index_to_world[4 * r + a] = R[3 * r + a] * sp[a];
+      v.index_to_world[4 * r + 3] = double(in.take<int8_t>()) * 2.5;
+    }
+    v.index_to_world[15] = 1;
+  }
+  if (flags & 16) {
+    v.rescale_slope = in.take<double>();
+    v.rescale_intercept = in.take<double>();
+  } else {
+    v.rescale_slope = 1;
+    v.rescale_intercept = 0;
+  }
+  double centre[3], radius;
+  if (flags & 32) {
+    for (int a = 0; a < 3; ++a) centre[a] = in.take<double>();
+    radius = in.take<double>();
+  } else {
+    double ijk[3];
+    for (int a = 0; a < 3; ++a) {
+      const double d = small_dims ? double(v.dims[a]) : 8.0;
+      ijk[a] = -0.5 + d * (in.take<uint8_t>() / 255.0);
+    }
+    to_world(v.index_to_world, ijk, centre);
+    radius = 0.25 * (1 + in.take<uint8_t>() % 64);
+  }
+  ffseg_params prm;
+  ffseg_params_init_default(&prm);
+  const bool set_params = (flags & 64) != 0;
+  if (set_params) {
+    prm.step_size = (1 + in.take<uint8_t>()) / 256.0;
+    prm.search_range_mm = 0.5 + in.take<uint8_t>() * 0.25;
+    prm.search_step_mm = in.take<uint8_t>() * 0.05;
+    prm.flip_tau = in.take<uint8_t>() / 256.0;
+    prm.diffusion_iterations = in.take<uint8_t>() % 12;
+    prm.lambda_uniform = in.take<uint8_t>() / 16.0;
+  }
+
+  // The voxel bytes: an exact heap block, so any stray read is an ASan report.
+  const size_t nbytes = in.n;
+  std::unique_ptr<uint8_t[]> voxels(new uint8_t[nbytes]);
+  if (nbytes) std::memcpy(voxels.get(), in.p, nbytes);
+  v.data = voxels.get();
+  v.data_bytes = nbytes;
+
+  Engine eng(n);
+  ffseg_engine* e = eng.e;
+  if (set_params) expect_one_of(ffseg_set_params(e, &prm), {FFSEG_OK, FFSEG_ERR_INVALID_ARGUMENT}, "set_params");
+
+  const ffseg_status sv = ffseg_set_volume(e, &v);
+  static const bool verbose = std::getenv("FFSEG_FUZZ_VERBOSE") != nullptr;
+  if (verbose) std::fprintf(stderr, "set_volume: %d %s\n", int(sv), ffseg_last_error(e));
+  if (sv != FFSEG_OK) {
+    if (sv != FFSEG_ERR_INVALID_VOLUME) finding("set_volume: unexpected status", sv);
+    if (ffseg_last_error(e)[0] == '\0') finding("set_volume refused without a message", sv);
+    // No volume: everything that needs one is misuse.
+    expect_one_of(ffseg_init_sphere(e, 0, centre, 1.0), {FFSEG_ERR_MISUSE, FFSEG_ERR_INVALID_ARGUMENT}, "init_sphere without volume");
+    expect_one_of(ffseg_step(e, nullptr), {FFSEG_ERR_MISUSE}, "step without volume");
+    return 0;
+  }
+
+  // Read the 8 corner voxels and the centre through the sampler.
+  for (int c = 0; c < 9; ++c) {
+    double ijk[3];
+    for (int a = 0; a < 3; ++a)
+      ijk[a] = c < 8 ? ((c >> a) & 1 ? double(v.dims[a] - 1) : 0.0) : 0.5 * double(v.dims[a] - 1);
+    double w[3], val = 0;
+    to_world(v.index_to_world, ijk, w);
+    if (!std::isfinite(w[0]) || !std::isfinite(w[1]) || !std::isfinite(w[2])) continue;
+    expect_one_of(ffseg_sample(e, w, FFSEG_SAMPLE_NEAREST, &val), {FFSEG_OK}, "sample nearest");
+    expect_one_of(ffseg_sample(e, w, FFSEG_SAMPLE_LINEAR, &val), {FFSEG_OK}, "sample linear");
+  }
+
+  const ffseg_status si = ffseg_init_sphere(e, 0, centre, radius);
+  if (verbose) std::fprintf(stderr, "init_sphere: %d %s\n", int(si), ffseg_last_error(e));
+  expect_one_of(si, {FFSEG_OK, FFSEG_ERR_INVALID_ARGUMENT, FFSEG_ERR_SPHERE_OUTSIDE}, "init_sphere");
+  if (si != FFSEG_OK) {
+    expect_one_of(ffseg_step(e, nullptr), {FFSEG_ERR_MISUSE}, "step without sphere");
+    return 0;
+  }
+  for (int s = 0; s < nsteps; ++s) {
+    ffseg_step_info info;
+    std::memset(&info, 0, sizeof info);
+    info.struct_size = sizeof info;
+    const ffseg_status st = ffseg_step(e, &info);
+    if (verbose) std::fprintf(stderr, "step: %d with_target %u moved %g %s\n", int(st), info.vertices_with_target[0],
+                              info.mean_displacement_mm[0], ffseg_last_error(e));
+    expect_one_of(st, {FFSEG_OK, FFSEG_CONVERGED, FFSEG_ERR_NUMERIC, FFSEG_ERR_ROI_TOO_LARGE}, "step");
+    if (st < 0) break;
+  }
+  if (flags & 128) {
+    // A broken descriptor is refused and the accepted volume stays.
+    ffseg_volume bad = v;
+    bad.data_bytes = 0;
+    expect_one_of(ffseg_set_volume(e, &bad), {FFSEG_ERR_INVALID_VOLUME}, "set_volume with data_bytes 0");
+    const ffseg_status st = ffseg_step(e, nullptr);
+    expect_one_of(st, {FFSEG_OK, FFSEG_CONVERGED, FFSEG_ERR_NUMERIC, FFSEG_ERR_ROI_TOO_LARGE}, "step after refused volume");
+  }
+
+  size_t nv = 0, nt = 0;
+  expect_one_of(ffseg_extract_mesh(e, 0, nullptr, 0, nullptr, 0, &nv, &nt), {FFSEG_OK}, "extract counts");
+  if (nv != size_t(6) * n * n) finding("vertex count is not 6 n^2", int(nv));
+  std::vector<float> xyz(3 * nv);
+  std::vector<uint32_t> tris(3 * nt);
+  expect_one_of(ffseg_extract_mesh(e, 0, xyz.data(), nv, tris.data(), nt, &nv, &nt), {FFSEG_OK}, "extract");
+  for (float f : xyz)
+    if (!std::isfinite(f)) finding("non-finite vertex in the mesh", 0);
+  for (uint32_t t : tris)
+    if (t >= nv) finding("triangle index out of range", int(t));
+
+  // Rasterize into a mask sized from the accepted dims (skipped when large).
+  const int64_t voxels_n = v.dims[0] * v.dims[1] * v.dims[2];
+  if (voxels_n <= (int64_t(1) << 20)) {
+    std::unique_ptr<uint8_t[]> mask(new uint8_t[size_t(voxels_n)]);
+    expect_one_of(ffseg_rasterize(e, 0, mask.get(), nullptr), {FFSEG_OK}, "rasterize");
+    for (int64_t q = 0; q < voxels_n; ++q)
+      if (mask[size_t(q)] > 1) finding("mask value other than 0/1", mask[size_t(q)]);
+    // Reversed k axis: the same voxels through negative strides.
+    const int64_t strides[3] = {1, v.dims[0], -v.dims[0] * v.dims[1]};
+    std::unique_ptr<uint8_t[]> flipped(new uint8_t[size_t(voxels_n)]);
+    expect_one_of(ffseg_rasterize(e, 0, flipped.get() + (v.dims[2] - 1) * v.dims[0] * v.dims[1], strides),
+                  {FFSEG_OK}, "rasterize flipped");
+    for (int64_t k = 0; k < v.dims[2]; ++k)
+      for (int64_t q = 0; q < v.dims[0] * v.dims[1]; ++q)
+        if (mask[size_t(k * v.dims[0] * v.dims[1] + q)] !=
+            flipped[size_t((v.dims[2] - 1 - k) * v.dims[0] * v.dims[1] + q)])
+          finding("rasterize with negative strides differs", 0);
+  }
+  expect_one_of(ffseg_rasterize(e, 1, nullptr, nullptr), {FFSEG_ERR_NULL_POINTER}, "rasterize NULL mask");
+  expect_one_of(ffseg_extract_mesh(e, 1, nullptr, 0, nullptr, 0, &nv, &nt), {FFSEG_ERR_MISUSE}, "extract unplaced");
+  return 0;
+}
