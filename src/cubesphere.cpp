@@ -27,6 +27,8 @@ void CubeSphere::carve(Arena& a, uint32_t n_) {
   vloop = a.alloc<uint32_t>(size_t(2) * nv);
   vpos = a.alloc<uint32_t>(size_t(2) * nv);
   faces = a.alloc<uint32_t>(size_t(4) * nfaces);
+  fadj = a.alloc<uint32_t>(size_t(4) * nfaces);
+  vfaces = a.alloc<uint32_t>(size_t(4) * nv);
   unit = a.alloc<double>(size_t(3) * nv);
 }
 
@@ -181,6 +183,34 @@ void CubeSphere::build() {
         const uint32_t f = m == 4 ? nq++ : first_tri + nt++;
         for (int i = 0; i < 4; ++i) faces[4 * f + i] = i < m ? cell[i] : kNone;
       }
+
+  // Faces around each vertex (every cell touches four grid corners), then the
+  // face across each face edge.
+  for (uint32_t i = 0; i < 4 * nv; ++i) vfaces[i] = kNone;
+  for (uint32_t f = 0; f < nfaces; ++f)
+    for (int e = 0; e < 4; ++e) {
+      const uint32_t v = faces[4 * f + e];
+      if (v == kNone) continue;
+      uint32_t* vf = vfaces + 4 * size_t(v);
+      int k = 0;
+      while (k < 4 && vf[k] != kNone) ++k;
+      if (k < 4) vf[k] = f;
+    }
+  for (uint32_t f = 0; f < nfaces; ++f) {
+    const int k = faces[4 * f + 3] == kNone ? 3 : 4;
+    for (int e = 0; e < 4; ++e) {
+      fadj[4 * f + e] = kNone;
+      if (e >= k) continue;
+      const uint32_t a = faces[4 * f + e], b = faces[4 * f + (e + 1) % k];
+      for (int q = 0; q < 4; ++q) {
+        const uint32_t g = vfaces[4 * size_t(a) + q];
+        if (g == kNone || g == f) continue;
+        const int kg = faces[4 * g + 3] == kNone ? 3 : 4;
+        for (int t = 0; t < kg; ++t)
+          if (faces[4 * g + t] == b && faces[4 * g + (t + 1) % kg] == a) fadj[4 * f + e] = g;
+      }
+    }
+  }
 }
 
 }  // namespace ffseg

@@ -29,6 +29,10 @@ struct CubeSphere {
   uint32_t* vpos = nullptr;
   // faces[4f + 0..3], counter-clockwise seen from outside.
   uint32_t* faces = nullptr;
+  // fadj[4f + e]: the face across edge e (faces[4f+e] -> faces[4f+e+1]) of f.
+  uint32_t* fadj = nullptr;
+  // vfaces[4v + 0..3]: the four faces around vertex v.
+  uint32_t* vfaces = nullptr;
   // Unit-sphere positions (equal-angle warp), 3 per vertex.
   double* unit = nullptr;
 

@@ -223,7 +223,7 @@ Err Engine::extract_mesh(uint32_t object, float* xyz, size_t xyz_cap, uint32_t* 
   const Object& o = objects_[object];
   if (xyz)
     for (size_t i = 0; i < 3 * NV; ++i) xyz[i] = float(o.x[i]);
-  if (tris) triangulate(mesh_, tris);
+  if (tris) triangulate(mesh_, o.x, tris);
   return Err::ok;
 }
 
@@ -448,7 +448,7 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
       std::snprintf(msg_, kMsgLen, "step: the solve produced non-finite positions; mesh unchanged");
       return Err::numeric;
     }
-  guard_step(mesh_, x, s.rhs, s.tmp_has);
+  guard_step(mesh_, x, s.rhs, s.tmp);
   for (uint32_t v = 0; v < nv; ++v) {
     double d2 = 0;
     for (int a = 0; a < 3; ++a) {

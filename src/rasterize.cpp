@@ -8,11 +8,11 @@
 
 namespace ffseg {
 
-void triangulate(const CubeSphere& m, uint32_t* tris) {
+void triangulate(const CubeSphere& m, const double* x, uint32_t* tris) {
   size_t t = 0;
   for (uint32_t f = 0; f < m.nfaces; ++f) {
     uint32_t tri[6];
-    const int c = face_triangles(m, f, tri);
+    const int c = face_triangles(m, f, tri, x);
     for (int i = 0; i < 3 * c; ++i) tris[t++] = tri[i];
   }
 }
@@ -49,7 +49,7 @@ void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol,
   int64_t jlo = D[1], jhi = -1, klo = D[2], khi = -1;
   for (uint32_t f = 0; f < m.nfaces; ++f) {
     uint32_t tri[6];
-    const int nt = face_triangles(m, f, tri);
+    const int nt = face_triangles(m, f, tri, x);
     for (int t = 0; t < nt; ++t) {
       double p[3][3];
       const uint32_t id[3] = {tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]};

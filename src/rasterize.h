@@ -8,17 +8,48 @@
 
 namespace ffseg {
 
+namespace detail {
+inline double split_cos(const double* a, const double* b, const double* c, const double* d) {
+  // cos of the angle between the normals of triangles (a, b, c) and (a, c, d).
+  double u[3], w[3], n1[3], n2[3];
+  for (int k = 0; k < 3; ++k) { u[k] = b[k] - a[k]; w[k] = c[k] - a[k]; }
+  n1[0] = u[1] * w[2] - u[2] * w[1]; n1[1] = u[2] * w[0] - u[0] * w[2]; n1[2] = u[0] * w[1] - u[1] * w[0];
+  for (int k = 0; k < 3; ++k) { u[k] = c[k] - a[k]; w[k] = d[k] - a[k]; }
+  n2[0] = u[1] * w[2] - u[2] * w[1]; n2[1] = u[2] * w[0] - u[0] * w[2]; n2[2] = u[0] * w[1] - u[1] * w[0];
+  const double l = (n1[0] * n1[0] + n1[1] * n1[1] + n1[2] * n1[2]) * (n2[0] * n2[0] + n2[1] * n2[1] + n2[2] * n2[2]);
+  return l > 0 ? (n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]) / __builtin_sqrt(l) : -1.0;
+}
+}  // namespace detail
+
 // Writes the triangles of face f (3 or 6 indices); returns how many triangles.
-inline int face_triangles(const CubeSphere& m, uint32_t f, uint32_t out[6]) {
+// A quad is split along the diagonal whose two triangles bend least at the
+// positions x (3 per vertex; nullptr: always the 0-2 diagonal), so a
+// non-planar quad never becomes a sharp fold.
+inline int face_triangles(const CubeSphere& m, uint32_t f, uint32_t out[6], const double* x = nullptr) {
   const uint32_t* q = m.faces + 4 * size_t(f);
-  out[0] = q[0]; out[1] = q[1]; out[2] = q[2];
-  if (q[3] == kNone) return 1;
-  out[3] = q[0]; out[4] = q[2]; out[5] = q[3];
+  if (q[3] == kNone) {
+    out[0] = q[0]; out[1] = q[1]; out[2] = q[2];
+    return 1;
+  }
+  bool alt = false;
+  if (x) {
+    const double *p0 = x + 3 * size_t(q[0]), *p1 = x + 3 * size_t(q[1]), *p2 = x + 3 * size_t(q[2]),
+                 *p3 = x + 3 * size_t(q[3]);
+    alt = detail::split_cos(p1, p2, p3, p0) > detail::split_cos(p0, p1, p2, p3) + 1e-12;
+  }
+  if (!alt) {
+    out[0] = q[0]; out[1] = q[1]; out[2] = q[2];
+    out[3] = q[0]; out[4] = q[2]; out[5] = q[3];
+  } else {
+    out[0] = q[1]; out[1] = q[2]; out[2] = q[3];
+    out[3] = q[1]; out[4] = q[3]; out[5] = q[0];
+  }
   return 2;
 }
 
-// All triangles, 3 indices each, outward (counter-clockwise seen from outside).
-void triangulate(const CubeSphere& m, uint32_t* tris);
+// All triangles, 3 indices each, outward (counter-clockwise seen from outside),
+// quads split as face_triangles does for positions x (may be nullptr).
+void triangulate(const CubeSphere& m, const double* x, uint32_t* tris);
 
 // mask[i*s0 + j*s1 + k*s2] = 1 where the voxel centre is inside the closed mesh
 // with vertices x (3 per vertex, mm), else 0; strides NULL = contiguous.

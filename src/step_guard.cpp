@@ -6,7 +6,9 @@ namespace ffseg {
 
 namespace {
 
-constexpr int kMaxRounds = 12;
+constexpr int kMaxHalvings = 6;
+// Adjacent triangles whose normals meet at more than 120 degrees form a fold.
+constexpr double kFoldCos = -0.5;
 
 void tri_normal(const double* a, const double* b, const double* c, double n[3]) {
   const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
@@ -16,44 +18,107 @@ void tri_normal(const double* a, const double* b, const double* c, double n[3]) 
   n[2] = u[0] * w[1] - u[1] * w[0];
 }
 
-}  // namespace
+// Normal of the triangle of face f (split for positions x) holding the directed
+// edge a -> b.
+void edge_triangle_normal(const CubeSphere& m, uint32_t f, uint32_t a, uint32_t b, const double* x, double n[3]) {
+  uint32_t tri[6];
+  const int nt = face_triangles(m, f, tri, x);
+  for (int t = 0; t < nt; ++t) {
+    const uint32_t* id = tri + 3 * t;
+    for (int k = 0; k < 3; ++k)
+      if (id[k] == a && id[(k + 1) % 3] == b) {
+        tri_normal(x + 3 * size_t(id[0]), x + 3 * size_t(id[1]), x + 3 * size_t(id[2]), n);
+        return;
+      }
+  }
+  n[0] = n[1] = n[2] = 0;
+}
 
-uint32_t guard_step(const CubeSphere& m, const double* x_old, double* x_new, uint8_t* mark) {
-  const size_t nv = m.nv;
-  for (size_t v = 0; v < nv; ++v) mark[v] = 0;
-  uint32_t touched = 0;
-  for (int round = 0; round < kMaxRounds + 1; ++round) {
-    uint32_t bad = 0;
-    for (uint32_t f = 0; f < m.nfaces; ++f) {
-      uint32_t tri[6];
-      const int nt = face_triangles(m, f, tri);
-      for (int t = 0; t < nt; ++t) {
-        const uint32_t* id = tri + 3 * t;
-        double pn[3][3];
-        for (int k = 0; k < 3; ++k)
-          for (int c = 0; c < 3; ++c) pn[k][c] = x_new[c * nv + id[k]];
-        double n0[3], n1[3];
-        tri_normal(x_old + 3 * size_t(id[0]), x_old + 3 * size_t(id[1]), x_old + 3 * size_t(id[2]), n0);
-        tri_normal(pn[0], pn[1], pn[2], n1);
-        if (n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0) continue;
-        ++bad;
-        for (int k = 0; k < 3; ++k) mark[id[k]] = 2;
+double cos_of(const double a[3], const double b[3]) {
+  const double l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) * (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+  return l > 0 ? (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / __builtin_sqrt(l) : -1.0;
+}
+
+// True when, at positions xs, a triangle has turned by 90 degrees or more
+// since x_old, or a face edge has become a fold that was not one before.
+bool violates(const CubeSphere& m, const double* x_old, const double* xs) {
+  for (uint32_t f = 0; f < m.nfaces; ++f) {
+    uint32_t tri[6];
+    const int nt = face_triangles(m, f, tri, x_old);
+    for (int t = 0; t < nt; ++t) {
+      const uint32_t* id = tri + 3 * t;
+      double n0[3], n1[3];
+      tri_normal(x_old + 3 * size_t(id[0]), x_old + 3 * size_t(id[1]), x_old + 3 * size_t(id[2]), n0);
+      tri_normal(xs + 3 * size_t(id[0]), xs + 3 * size_t(id[1]), xs + 3 * size_t(id[2]), n1);
+      if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0)) return true;
+    }
+    // Folds: inside the quad (between its two triangles) and across each edge.
+    if (nt == 2) {
+      uint32_t tn[6];
+      face_triangles(m, f, tn, xs);
+      double a[3], b[3];
+      tri_normal(xs + 3 * size_t(tn[0]), xs + 3 * size_t(tn[1]), xs + 3 * size_t(tn[2]), a);
+      tri_normal(xs + 3 * size_t(tn[3]), xs + 3 * size_t(tn[4]), xs + 3 * size_t(tn[5]), b);
+      if (cos_of(a, b) < kFoldCos) {
+        double c[3], d[3];
+        tri_normal(x_old + 3 * size_t(tri[0]), x_old + 3 * size_t(tri[1]), x_old + 3 * size_t(tri[2]), c);
+        tri_normal(x_old + 3 * size_t(tri[3]), x_old + 3 * size_t(tri[4]), x_old + 3 * size_t(tri[5]), d);
+        if (cos_of(c, d) >= kFoldCos) return true;
       }
     }
-    if (bad == 0) break;
-    const bool last = round == kMaxRounds;
-    for (size_t v = 0; v < nv; ++v) {
-      if (mark[v] != 2) continue;
-      mark[v] = 1;
+    const uint32_t* q = m.faces + 4 * size_t(f);
+    const int k = q[3] == kNone ? 3 : 4;
+    for (int e = 0; e < k; ++e) {
+      const uint32_t g = m.fadj[4 * size_t(f) + e];
+      if (g == kNone || g < f) continue;  // each shared edge once
+      const uint32_t a = q[e], b = q[(e + 1) % k];
+      double nf[3], ng[3];
+      edge_triangle_normal(m, f, a, b, xs, nf);
+      edge_triangle_normal(m, g, b, a, xs, ng);
+      if (cos_of(nf, ng) >= kFoldCos) continue;
+      edge_triangle_normal(m, f, a, b, x_old, nf);
+      edge_triangle_normal(m, g, b, a, x_old, ng);
+      if (cos_of(nf, ng) >= kFoldCos) return true;
+    }
+  }
+  return false;
+}
+
+void blend(size_t nv, const double* x_old, const double* x_new, double s, double* xs) {
+  for (size_t v = 0; v < nv; ++v)
+    for (int c = 0; c < 3; ++c) {
+      const double o = x_old[3 * v + c];
+      xs[3 * v + c] = o + s * (x_new[c * nv + v] - o);
+    }
+}
+
+}  // namespace
+
+double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs) {
+  // A line search along the solved update: the largest s in {1, 1/2, ...,
+  // 1/64} (else 0) that turns no triangle by 90 degrees and folds no edge.
+  // Scaling the whole update keeps it smooth; moving single vertices back would
+  // leave spikes.
+  const size_t nv = m.nv;
+  double s = 1.0;
+  blend(nv, x_old, x_new, s, xs);
+  int halvings = 0;
+  while (violates(m, x_old, xs)) {
+    if (++halvings > kMaxHalvings) {
+      s = 0;
+      break;
+    }
+    s *= 0.5;
+    blend(nv, x_old, x_new, s, xs);
+  }
+  if (s < 1.0)
+    for (size_t v = 0; v < nv; ++v)
       for (int c = 0; c < 3; ++c) {
         double& p = x_new[c * nv + v];
         const double o = x_old[3 * v + c];
-        p = last ? o : o + 0.5 * (p - o);
+        p = o + s * (p - o);
       }
-    }
-  }
-  for (size_t v = 0; v < nv; ++v) touched += mark[v] != 0;
-  return touched;
+  return s;
 }
 
 }  // namespace ffseg

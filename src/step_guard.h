@@ -1,8 +1,8 @@
 // A guard on each step's motion: no triangle of the mesh may turn by 90
 // degrees or more between the old and the new positions (an inverted or
-// collapsed face is a flip in the making). Vertices of offending triangles have
-// their motion halved, repeatedly, until every triangle passes; the old mesh
-// passes trivially, so this always terminates with a flip-free update.
+// collapsed face is a flip in the making), and no edge may become a fold
+// (adjacent triangles at more than 120 degrees). The whole update is scaled
+// back by halves until the mesh passes; the old mesh passes trivially.
 #pragma once
 #include <cstdint>
 
@@ -11,8 +11,9 @@
 namespace ffseg {
 
 // x_old: current positions (3 per vertex); x_new: proposed positions as three
-// columns of nv (x_new[c * nv + v]), shortened in place. mark: nv bytes of
-// scratch. Returns the number of vertices whose motion was shortened.
-uint32_t guard_step(const CubeSphere& m, const double* x_old, double* x_new, uint8_t* mark);
+// columns of nv (x_new[c * nv + v]), scaled back in place towards x_old;
+// xs: 3 * nv scratch. Returns the fraction of the update kept (1 when nothing
+// turned or folded).
+double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs);
 
 }  // namespace ffseg

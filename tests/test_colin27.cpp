@@ -158,8 +158,16 @@ TEST_CASE("chapter 4 on a real shape: the Colin27 brain mask (ch2bet), n = 49, D
     REQUIRE(ffseg_test::extract(eb.e, 0, &xyz, &tris));
     const auto rep = ffseg_test::check_self_intersections(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3);
     worst = std::max(worst, rep.disjoint_pairs + rep.shared_vertex_pairs);
-    worst_flips = std::max(worst_flips, ffseg_test::count_normal_flips(xyz.data(), xyz.size() / 3, tris.data(),
-                                                                       tris.size() / 3, -0.5));
+    const size_t fl = ffseg_test::count_normal_flips(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3, -0.5);
+    if (fl && std::getenv("FFSEG_DUMP")) {
+      FILE* f = std::fopen(std::getenv("FFSEG_DUMP"), "w");
+      std::fprintf(f, "%zu %zu\n", xyz.size() / 3, tris.size() / 3);
+      for (size_t i = 0; i < xyz.size() / 3; ++i) std::fprintf(f, "%g %g %g\n", xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+      for (size_t i = 0; i < tris.size() / 3; ++i) std::fprintf(f, "%u %u %u\n", tris[3 * i], tris[3 * i + 1], tris[3 * i + 2]);
+      std::fclose(f);
+      std::printf("flip at step %d\n", steps + 1);
+    }
+    worst_flips = std::max(worst_flips, fl);
     if (st == FFSEG_CONVERGED) { ++steps; break; }
   }
   std::vector<uint8_t> mask(N);

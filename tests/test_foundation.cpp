@@ -421,3 +421,23 @@ TEST_CASE("init_sphere and extract_mesh errors; counts and short buffers") {
   CHECK(ffseg_rasterize(eb2.e, 1, mask.data(), nullptr) == FFSEG_ERR_MISUSE);
   CHECK(ffseg_rasterize(eb.e, 0, nullptr, nullptr) == FFSEG_ERR_NULL_POINTER);
 }
+
+TEST_CASE("cube-sphere face adjacency: every face edge has the face across it, symmetric") {
+  for (uint32_t n : {2u, 5u, 16u}) {
+    CAPTURE(n);
+    MeshBox box(n);
+    const ffseg::CubeSphere& m = box.m;
+    for (uint32_t f = 0; f < m.nfaces; ++f) {
+      const int k = m.faces[4 * f + 3] == ffseg::kNone ? 3 : 4;
+      for (int e = 0; e < k; ++e) {
+        const uint32_t g = m.fadj[4 * f + e];
+        REQUIRE(g != ffseg::kNone);
+        CHECK(g != f);
+        CHECK(std::count(m.fadj + 4 * g, m.fadj + 4 * g + 4, f) == 1);
+      }
+      if (k == 3) CHECK(m.fadj[4 * f + 3] == ffseg::kNone);
+    }
+    for (uint32_t v = 0; v < m.nv; ++v)
+      for (int q = 0; q < 4; ++q) CHECK(m.vfaces[4 * v + q] != ffseg::kNone);
+  }
+}
