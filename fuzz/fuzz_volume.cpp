@@ -30,23 +30,11 @@
 #include <vector>
 
 #include "ffseg.h"
+#include "fuzz_reader.h"
 
 namespace {
 
-struct Reader {
-  const uint8_t* p;
-  size_t n;
-  template <class T>
-  T take() {
-    T v;
-    std::memset(&v, 0, sizeof v);
-    const size_t k = n < sizeof v ? n : sizeof v;
-    std::memcpy(&v, p, k);
-    p += k;
-    n -= k;
-    return v;
-  }
-};
+using ffseg_fuzz::Reader;
 
 [[noreturn]] void finding(const char* what, ffseg_status st) {
   std::fprintf(stderr, "fuzz_volume: %s (status %d)\n", what, int(st));

@@ -1,5 +1,7 @@
 #include "smoothing.h"
 
+#include "affine.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -276,19 +278,11 @@ double SmoothedRoi::sample_linear(const double w[3]) const {
   return sample_index(p);
 }
 
-void SmoothedRoi::world_to_index(const double w[3], double p[3]) const {
-  for (int r = 0; r < 3; ++r)
-    p[r] = Ainv_[4 * r] * w[0] + Ainv_[4 * r + 1] * w[1] + Ainv_[4 * r + 2] * w[2] + Ainv_[4 * r + 3];
-}
+void SmoothedRoi::world_to_index(const double w[3], double p[3]) const { affine_point(Ainv_, w, p); }
 
-void SmoothedRoi::index_to_world(const double p[3], double w[3]) const {
-  for (int r = 0; r < 3; ++r)
-    w[r] = A_[4 * r] * p[0] + A_[4 * r + 1] * p[1] + A_[4 * r + 2] * p[2] + A_[4 * r + 3];
-}
+void SmoothedRoi::index_to_world(const double p[3], double w[3]) const { affine_point(A_, p, w); }
 
-void SmoothedRoi::world_dir_to_index(const double w[3], double p[3]) const {
-  for (int r = 0; r < 3; ++r) p[r] = Ainv_[4 * r] * w[0] + Ainv_[4 * r + 1] * w[1] + Ainv_[4 * r + 2] * w[2];
-}
+void SmoothedRoi::world_dir_to_index(const double w[3], double p[3]) const { affine_direction(Ainv_, w, p); }
 
 namespace {
 

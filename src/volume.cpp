@@ -1,5 +1,7 @@
 #include "volume.h"
 
+#include "affine.h"
+
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -142,20 +144,11 @@ bool VolumeView::assign(const VolumeDesc& d, char* msg, size_t n) {
   return true;
 }
 
-void VolumeView::world_to_index(const double w[3], double ijk[3]) const {
-  for (int r = 0; r < 3; ++r)
-    ijk[r] = Ainv_[4 * r] * w[0] + Ainv_[4 * r + 1] * w[1] + Ainv_[4 * r + 2] * w[2] + Ainv_[4 * r + 3];
-}
+void VolumeView::world_to_index(const double w[3], double ijk[3]) const { affine_point(Ainv_, w, ijk); }
 
-void VolumeView::index_to_world(const double ijk[3], double w[3]) const {
-  for (int r = 0; r < 3; ++r)
-    w[r] = A_[4 * r] * ijk[0] + A_[4 * r + 1] * ijk[1] + A_[4 * r + 2] * ijk[2] + A_[4 * r + 3];
-}
+void VolumeView::index_to_world(const double ijk[3], double w[3]) const { affine_point(A_, ijk, w); }
 
-void VolumeView::world_dir_to_index(const double w[3], double ijk[3]) const {
-  for (int r = 0; r < 3; ++r)
-    ijk[r] = Ainv_[4 * r] * w[0] + Ainv_[4 * r + 1] * w[1] + Ainv_[4 * r + 2] * w[2];
-}
+void VolumeView::world_dir_to_index(const double w[3], double ijk[3]) const { affine_direction(Ainv_, w, ijk); }
 
 double VolumeView::min_spacing() const {
   double m = spacing_[0];
