@@ -179,3 +179,30 @@ TEST_CASE("chapter 4 on a real shape: the Colin27 brain mask (ch2bet), n = 49, D
   CHECK(worst == 0);
   CHECK(worst_flips == 0);
 }
+
+TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, floors on Dice and ASSD") {
+  // Floors guard today's measured result (mesh n = 12, default parameters);
+  // they are below what PEERS.md asks of ffseg for caudate and putamen.
+  ffseg_tools::NiftiImage t1, aal;
+  std::string err;
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kAal, &aal, &err), err);
+  struct Case {
+    int label;
+    const char* name;
+    double dice_floor, assd_ceiling;
+  };
+  const Case cases[] = {{73, "putamen L", 0.25, 8.5},    {74, "putamen R", 0.36, 6.5},
+                        {77, "thalamus L", 0.50, 4.0},   {78, "thalamus R", 0.43, 4.5},
+                        {71, "caudate L", 0.19, 7.5},    {72, "caudate R", 0.25, 7.5},
+                        {37, "hippocampus L", 0.34, 7.0}, {38, "hippocampus R", 0.43, 6.5}};
+  std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
+  for (const Case& c : cases) {
+    CAPTURE(c.name);
+    const StructureResult r = segment_structure(t1, aal, c.label, c.name, 12, 100);
+    std::printf("| %s | %d | %.3f | %.3f | %.2f | %.2f | %d | %.0f |\n", r.name, r.label, r.m.dice, r.m.voe, r.m.assd_mm,
+                r.m.hd95_mm, r.steps, r.ms);
+    CHECK(r.m.dice >= c.dice_floor);
+    CHECK(r.m.assd_mm <= c.assd_ceiling);
+  }
+}
