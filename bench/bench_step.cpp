@@ -25,12 +25,13 @@ int main(int argc, char** argv) {
   int steps = 12;
   if (argc > 1) steps = std::atoi(argv[1]);
   const ffseg_test::Phantom cup = ffseg_test::cup_phantom();
-  const char* stage_names[FFSEG_STAGE_COUNT] = {"search", "flips", "diffusion", "folds", "assembly", "factor", "solve", "features"};
+  const char* stage_names[FFSEG_STAGE_COUNT] = {"search", "flips", "diffusion", "folds", "assembly", "factor", "solve", "features", "guard"};
   std::printf("ffseg_step on the cup phantom (128^3 u8, sphere r = 60 mm around it), median of steps 2..%d, one thread\n\n", steps);
   std::printf("| n | vertices | step ms |");
-  for (int s = 0; s < FFSEG_STAGE_COUNT - 1; ++s) std::printf(" %s ms |", stage_names[s]);
+  for (int s = 0; s < FFSEG_STAGE_COUNT; ++s)
+    if (s != FFSEG_STAGE_FEATURES) std::printf(" %s ms |", stage_names[s]);
   std::printf(" step / factor |\n|---|---|---|");
-  for (int s = 0; s < FFSEG_STAGE_COUNT - 1; ++s) std::printf("---|");
+  for (int s = 0; s < FFSEG_STAGE_COUNT - 1; ++s) std::printf("---|");  // features: grey levels only
   std::printf("---|\n");
   for (uint32_t n : {21u, 33u, 49u, 65u}) {
     ffseg_config cfg;
@@ -71,7 +72,8 @@ int main(int argc, char** argv) {
     }
     const double f = median(stage[FFSEG_STAGE_FACTOR]);
     std::printf("| %u | %u | %.2f |", n, 6 * n * n, median(total));
-    for (int q = 0; q < FFSEG_STAGE_COUNT - 1; ++q) std::printf(" %.2f |", median(stage[q]));
+    for (int q = 0; q < FFSEG_STAGE_COUNT; ++q)
+      if (q != FFSEG_STAGE_FEATURES) std::printf(" %.2f |", median(stage[q]));
     std::printf(" %.2fx |\n", f > 0 ? median(total) / f : 0.0);
     ffseg_destroy(e);
     std::free(ws);

@@ -245,8 +245,9 @@ FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object,
 #define FFSEG_STAGE_ASSEMBLY 4
 #define FFSEG_STAGE_FACTOR 5
 #define FFSEG_STAGE_SOLVE 6
-#define FFSEG_STAGE_FEATURES 7
-#define FFSEG_STAGE_COUNT 8
+#define FFSEG_STAGE_FEATURES 7 /* grey levels: smoothing the crop, fitting the model */
+#define FFSEG_STAGE_GUARD 8    /* the line search that keeps the update flip- and fold-free */
+#define FFSEG_STAGE_COUNT 9
 /* Per-object figures are reported for the first FFSEG_REPORT_OBJECTS objects. */
 #define FFSEG_REPORT_OBJECTS 16
 

@@ -449,6 +449,7 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
       return Err::numeric;
     }
   guard_step(mesh_, x, s.rhs, s.tmp);
+  lap(kStageGuard);
   for (uint32_t v = 0; v < nv; ++v) {
     double d2 = 0;
     for (int a = 0; a < 3; ++a) {

@@ -94,6 +94,7 @@ enum Stage : int {
   kStageFactor,
   kStageSolve,
   kStageFeatures,
+  kStageGuard,
   kStageCount
 };
 
