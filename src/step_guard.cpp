@@ -39,22 +39,33 @@ double cos_of(const double a[3], const double b[3]) {
   return l > 0 ? (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / __builtin_sqrt(l) : -1.0;
 }
 
-// True when, at positions xs, a triangle has turned by 90 degrees or more
-// since x_old, or a face edge has become a fold that was not one before.
-bool violates(const CubeSphere& m, const double* x_old, const double* xs) {
+}  // namespace
+
+uint32_t mark_violations(const CubeSphere& m, const double* x_old, const double* xs, uint8_t* mark) {
+  uint32_t count = 0;
+  auto hit = [&](const uint32_t* ids, int k) {
+    ++count;
+    if (mark)
+      for (int i = 0; i < k; ++i) mark[ids[i]] = 1;
+  };
   for (uint32_t f = 0; f < m.nfaces; ++f) {
-    uint32_t tri[6];
+    uint32_t tri[6] = {0, 0, 0, 0, 0, 0};
     const int nt = face_triangles(m, f, tri, x_old);
     for (int t = 0; t < nt; ++t) {
       const uint32_t* id = tri + 3 * t;
       double n0[3], n1[3];
       tri_normal(x_old + 3 * size_t(id[0]), x_old + 3 * size_t(id[1]), x_old + 3 * size_t(id[2]), n0);
       tri_normal(xs + 3 * size_t(id[0]), xs + 3 * size_t(id[1]), xs + 3 * size_t(id[2]), n1);
-      if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0)) return true;
+      if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0)) {
+        hit(id, 3);
+        if (!mark) return count;
+      }
     }
+    const uint32_t* q = m.faces + 4 * size_t(f);
+    const int k = q[3] == kNone ? 3 : 4;
     // Folds: inside the quad (between its two triangles) and across each edge.
     if (nt == 2) {
-      uint32_t tn[6];
+      uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
       face_triangles(m, f, tn, xs);
       double a[3], b[3];
       tri_normal(xs + 3 * size_t(tn[0]), xs + 3 * size_t(tn[1]), xs + 3 * size_t(tn[2]), a);
@@ -63,11 +74,12 @@ bool violates(const CubeSphere& m, const double* x_old, const double* xs) {
         double c[3], d[3];
         tri_normal(x_old + 3 * size_t(tri[0]), x_old + 3 * size_t(tri[1]), x_old + 3 * size_t(tri[2]), c);
         tri_normal(x_old + 3 * size_t(tri[3]), x_old + 3 * size_t(tri[4]), x_old + 3 * size_t(tri[5]), d);
-        if (cos_of(c, d) >= kFoldCos) return true;
+        if (cos_of(c, d) >= kFoldCos) {
+          hit(q, 4);
+          if (!mark) return count;
+        }
       }
     }
-    const uint32_t* q = m.faces + 4 * size_t(f);
-    const int k = q[3] == kNone ? 3 : 4;
     for (int e = 0; e < k; ++e) {
       const uint32_t g = m.fadj[4 * size_t(f) + e];
       if (g == kNone || g < f) continue;  // each shared edge once
@@ -78,10 +90,20 @@ bool violates(const CubeSphere& m, const double* x_old, const double* xs) {
       if (cos_of(nf, ng) >= kFoldCos) continue;
       edge_triangle_normal(m, f, a, b, x_old, nf);
       edge_triangle_normal(m, g, b, a, x_old, ng);
-      if (cos_of(nf, ng) >= kFoldCos) return true;
+      if (cos_of(nf, ng) >= kFoldCos) {
+        hit(q, k);
+        hit(m.faces + 4 * size_t(g), m.faces[4 * size_t(g) + 3] == kNone ? 3 : 4);
+        if (!mark) return count;
+      }
     }
   }
-  return false;
+  return count;
+}
+
+namespace {
+
+bool violates(const CubeSphere& m, const double* x_old, const double* xs) {
+  return mark_violations(m, x_old, xs, nullptr) > 0;
 }
 
 void blend(size_t nv, const double* x_old, const double* x_new, double s, double* xs) {

@@ -16,4 +16,9 @@ namespace ffseg {
 // turned or folded).
 double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs);
 
+// The same test at positions xs (3 per vertex): sets mark[v] = 1 for the
+// vertices of every triangle that turned by 90 degrees or more and of every
+// face at a new fold; returns how many offences (mark may be nullptr).
+uint32_t mark_violations(const CubeSphere& m, const double* x_old, const double* xs, uint8_t* mark);
+
 }  // namespace ffseg
