@@ -27,7 +27,11 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
     edge += std::sqrt(e2);
   }
   edge /= double(nv);
-  for (uint32_t v = 0; v < nv; ++v) s.mark[v] = 0;
+  // mark bits: kEver (shortened this step), kNow (shorten after this pass),
+  // kActive (query this pass: everyone first, then only the vertices just
+  // shortened, since a conflict always marks both of its vertices).
+  constexpr uint8_t kEver = 1, kNow = 2, kActive = 4;
+  for (uint32_t v = 0; v < nv; ++v) s.mark[v] = kActive;
   uint32_t shortened = 0;
   for (int pass = 0; pass < kMaxPasses; ++pass) {
     // This step moves u_i to u_i + alpha d_i: only that stretch can cross.
@@ -51,7 +55,7 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
     s.grid.build(s.pts, 2 * nv, h);
     uint32_t conflicts = 0;
     for (uint32_t i = 0; i < nv; ++i) {
-      if (!has[i]) continue;
+      if (!has[i] || !(s.mark[i] & kActive)) continue;
       const double* di = d + 3 * size_t(i);
       const double li = std::sqrt(di[0] * di[0] + di[1] * di[1] + di[2] * di[2]);
       if (!(li > 0)) continue;
@@ -74,20 +78,23 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
         const double closing = (di[0] - dj[0]) * (ui[0] - uj[0]) + (di[1] - dj[1]) * (ui[1] - uj[1]) +
                                (di[2] - dj[2]) * (ui[2] - uj[2]);
         if (ahead > 0 && closing < 0) {
-          if (s.mark[i] < 2) s.mark[i] = 2;
-          if (s.mark[j] < 2) s.mark[j] = 2;
+          s.mark[i] |= kNow;
+          s.mark[j] |= kNow;
           ++conflicts;
         }
       });
     }
     if (conflicts == 0) break;
-    for (uint32_t v = 0; v < nv; ++v)
-      if (s.mark[v] == 2) {
+    for (uint32_t v = 0; v < nv; ++v) {
+      if (s.mark[v] & kNow) {
         for (int a = 0; a < 3; ++a) d[3 * size_t(v) + a] *= 0.5;
-        s.mark[v] = 1;
+        s.mark[v] = kEver | kActive;
+      } else {
+        s.mark[v] &= kEver;
       }
+    }
   }
-  for (uint32_t v = 0; v < nv; ++v) shortened += s.mark[v] != 0;
+  for (uint32_t v = 0; v < nv; ++v) shortened += (s.mark[v] & kEver) != 0;
   return shortened;
 }
 
