@@ -1,6 +1,8 @@
 // Tests for tools/nifti.{h,cpp}: strict NIfTI-1 reader / writer.
 #include <doctest/doctest.h>
 
+#include "support/gzip_bytes.h"
+
 #include "nifti.h"
 
 #include <zlib.h>
@@ -104,20 +106,7 @@ Bytes encode(const NiftiImage& img, bool gzip = false) {
     return b;
 }
 
-Bytes gzip_bytes(const Bytes& in, int level = 6) {
-    z_stream zs;
-    std::memset(&zs, 0, sizeof zs);
-    REQUIRE(deflateInit2(&zs, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) == Z_OK);
-    Bytes out(deflateBound(&zs, uLong(in.size())) + 64);
-    zs.next_in = const_cast<uint8_t*>(in.data());
-    zs.avail_in = uInt(in.size());
-    zs.next_out = out.data();
-    zs.avail_out = uInt(out.size());
-    REQUIRE(deflate(&zs, Z_FINISH) == Z_STREAM_END);
-    out.resize(zs.total_out);
-    deflateEnd(&zs);
-    return out;
-}
+using ffseg_test::gzip_bytes;
 
 bool read_mem(const Bytes& b, NiftiImage* img, std::string* err, const NiftiLimits& lim = {}) {
     return nifti_read_memory(b.data(), b.size(), img, err, lim);

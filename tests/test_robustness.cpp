@@ -15,6 +15,8 @@
 // Together with the cases below that is well over 40 named cases per the issue.
 #include <doctest/doctest.h>
 
+#include "support/gzip_bytes.h"
+
 #include <zlib.h>
 
 #include <cmath>
@@ -114,20 +116,7 @@ Bytes good_nifti(int vt = ffseg_tools::kNiftiVoxI16) {
   return out;
 }
 
-Bytes gzip(const Bytes& in) {
-  z_stream zs;
-  std::memset(&zs, 0, sizeof zs);
-  REQUIRE(deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) == Z_OK);
-  Bytes out(deflateBound(&zs, uLong(in.size())) + 64);
-  zs.next_in = const_cast<uint8_t*>(in.data());
-  zs.avail_in = uInt(in.size());
-  zs.next_out = out.data();
-  zs.avail_out = uInt(out.size());
-  REQUIRE(deflate(&zs, Z_FINISH) == Z_STREAM_END);
-  out.resize(zs.total_out);
-  deflateEnd(&zs);
-  return out;
-}
+Bytes gzip(const Bytes& in) { return ffseg_test::gzip_bytes(in); }
 
 // ---- the table -------------------------------------------------------------------------
 
