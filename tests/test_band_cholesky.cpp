@@ -1,6 +1,8 @@
 // Tests of the RCM ordering and the envelope Cholesky solver.
 #include <doctest/doctest.h>
 
+#include "support/system_entries.h"
+
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
@@ -122,39 +124,11 @@ struct Solver {
   Solver& operator=(const Solver&) = delete;
 };
 
-struct Entry {
-  uint32_t i, j;
-  double v;
-};
+using ffseg_test::Entry;
 
-// Cube-sphere system lL A^T A + lP W + lU C^T C, as (i >= j) entries, repeated.
 std::vector<Entry> cube_sphere_system(const ffseg::CubeSphere& m, double lL, double lP, double lU,
                                       const std::vector<double>& w) {
-  std::vector<Entry> t;
-  auto put = [&](uint32_t a, uint32_t b, double v) {
-    if (a < b) std::swap(a, b);
-    t.push_back({a, b, v});
-  };
-  for (uint32_t i = 0; i < m.nv; ++i) {
-    const uint32_t idx[5] = {i, m.nbr[4 * i], m.nbr[4 * i + 1], m.nbr[4 * i + 2], m.nbr[4 * i + 3]};
-    const double val[5] = {1.0, -0.25, -0.25, -0.25, -0.25};
-    for (int a = 0; a < 5; ++a)
-      for (int b = 0; b <= a; ++b) {
-        double v = lL * val[a] * val[b];
-        if (a != b && idx[a] == idx[b]) v *= 2;
-        put(idx[a], idx[b], v);
-      }
-    if (w[i] != 0) put(i, i, lP * w[i]);
-    for (int k = 0; k < 4; ++k) {
-      const uint32_t j = m.nbr[4 * i + k];
-      if (j > i) {
-        put(i, i, lU);
-        put(j, j, lU);
-        put(i, j, -lU);
-      }
-    }
-  }
-  return t;
+  return ffseg_test::cube_sphere_system(m.nv, m.nbr, lL, lP, lU, w);
 }
 
 Eigen::SparseMatrix<double> to_eigen(uint32_t n, const std::vector<Entry>& t) {
