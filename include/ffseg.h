@@ -176,7 +176,7 @@ typedef struct ffseg_params {
                                     likelihood divided by its peak; (0, 1); default 0.3 */
   double sigma_floor_fraction;   /* lower bound on each Gaussian's standard deviation as a fraction of the
                                     region's 1st-99th percentile range (a small sphere in clean data
-                                    under-estimates the spread); [0, 1]; default 0.02 */
+                                    under-estimates the spread); [0, 1]; default 0.05 */
   double bin_radius;             /* R of Algorithm 2, intensity units; 0 = 2 x the sigma floor; [0, 1e9]; default 0 */
   double bin_separation;         /* S of Algorithm 2, intensity units; 0 = 4 x the sigma floor; [0, 1e9]; default 0 */
 } ffseg_params;
