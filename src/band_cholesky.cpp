@@ -633,17 +633,9 @@ void EnvelopeCholesky::clear() {
 }
 
 double EnvelopeCholesky::get(uint32_t i, uint32_t j) const {
-  if (!ready_ || i >= n_ || j >= n_) return 0.0;
-  uint32_t a = iperm_[i], b = iperm_[j];
-  if (a < b) {
-    const uint32_t t = a;
-    a = b;
-    b = t;
-  }
-  const uint32_t g = a >> 2;
-  const uint32_t s = gstart_[g];
-  if (b < s) return 0.0;
-  return val_[goff_[g] + (a & 3u) * group_width(g, s) + (b - s)];
+  if (!ready_) return 0.0;
+  const double* p = slot(i, j);
+  return p ? *p : 0.0;
 }
 
 int EnvelopeCholesky::factor() {

@@ -97,24 +97,12 @@ class EnvelopeCholesky {
   // (either order). Original numbering, O(1). Entries outside the envelope or
   // indices >= n make factor() return kOutOfPattern.
   inline void add(uint32_t i, uint32_t j, double v) {
-    if (i >= n_ || j >= n_) {
+    double* p = slot(i, j);
+    if (p == nullptr) {
       bad_entry_ = true;
       return;
     }
-    uint32_t a = iperm_[i], b = iperm_[j];
-    if (a < b) {
-      const uint32_t t = a;
-      a = b;
-      b = t;
-    }
-    const uint32_t g = a >> 2;
-    const uint32_t s = gstart_[g];
-    if (b < s) {
-      bad_entry_ = true;
-      return;
-    }
-    const uint64_t w = uint64_t(4) * g + 4 - s;
-    val_[goff_[g] + (a & 3u) * w + (b - s)] += v;
+    *p += v;
   }
   // Value currently stored at (i, j) (A before factor(), L after), original
   // numbering; 0 outside the envelope.
@@ -147,6 +135,22 @@ class EnvelopeCholesky {
   static const char* kernel_name(Kernel k);
 
  private:
+  // Storage of entry (i, j) in original numbering, or nullptr outside the
+  // envelope / for indices >= n.
+  inline double* slot(uint32_t i, uint32_t j) const {
+    if (i >= n_ || j >= n_) return nullptr;
+    uint32_t a = iperm_[i], b = iperm_[j];
+    if (a < b) {
+      const uint32_t t = a;
+      a = b;
+      b = t;
+    }
+    const uint32_t g = a >> 2;
+    const uint32_t s = gstart_[g];
+    if (b < s) return nullptr;
+    return val_ + goff_[g] + (a & 3u) * (uint64_t(4) * g + 4 - s) + (b - s);
+  }
+
   uint32_t n_ = 0;
   uint32_t npad_ = 0;     // n rounded up to a multiple of 4 (extra rows: identity)
   uint32_t ngroups_ = 0;  // npad / 4

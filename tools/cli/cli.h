@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "nifti.h"
+#include "report_json.h"
 
 namespace ffseg_cli {
 
@@ -116,6 +117,8 @@ struct MaskMetrics {
 };
 MaskMetrics compare_masks_cropped(const uint8_t* a, const uint8_t* b, const int dims[3],
                                   const double spacing[3]);
+// Writes dice, voe, rvd, assd_mm, hd95_mm and hd_mm of m into the object j.
+void set_metric_fields(ffseg_tools::Json& j, const MaskMetrics& m);
 
 // ---- files ----------------------------------------------------------------------
 bool path_exists(const std::string& p);

@@ -129,12 +129,7 @@ int cmd_eval(int argc, char** argv) {
       e.set("truth_voxels", uint64_t(nb));
       e.set("pred_ml", m.vol_a_ml);
       e.set("truth_ml", m.vol_b_ml);
-      e.set("dice", m.dice);
-      e.set("voe", m.voe);
-      e.set("rvd", m.rvd);
-      e.set("assd_mm", m.assd_mm);
-      e.set("hd95_mm", m.hd95_mm);
-      e.set("hd_mm", m.hd_mm);
+      set_metric_fields(e, m);
       list.push(std::move(e));
     } else {
       std::printf("%-12s %10zu %10zu %10s %10s %8s %8s %9s %9s\n", name.c_str(), na, nb, num(m.vol_a_ml, "%.3f").c_str(),

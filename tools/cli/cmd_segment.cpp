@@ -661,12 +661,7 @@ int cmd_segment(int argc, char** argv) {
       mj.set("truth_label", labels[k]);
       mj.set("truth_voxels", uint64_t(m.voxels_b));
       mj.set("truth_volume_ml", m.vol_b_ml);
-      mj.set("dice", m.dice);
-      mj.set("voe", m.voe);
-      mj.set("rvd", m.rvd);
-      mj.set("assd_mm", m.assd_mm);
-      mj.set("hd95_mm", m.hd95_mm);
-      mj.set("hd_mm", m.hd_mm);
+      set_metric_fields(mj, m);
       o.set("metrics", std::move(mj));
     }
     objects.push(std::move(o));

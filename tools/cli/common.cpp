@@ -360,3 +360,16 @@ void check_interrupted() {
 }
 
 }  // namespace ffseg_cli
+
+namespace ffseg_cli {
+
+void set_metric_fields(ffseg_tools::Json& j, const MaskMetrics& m) {
+  j.set("dice", m.dice);
+  j.set("voe", m.voe);
+  j.set("rvd", m.rvd);
+  j.set("assd_mm", m.assd_mm);
+  j.set("hd95_mm", m.hd95_mm);
+  j.set("hd_mm", m.hd_mm);
+}
+
+}  // namespace ffseg_cli
