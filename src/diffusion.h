@@ -14,4 +14,17 @@ namespace ffseg {
 void diffuse_displacements(const CubeSphere& m, uint32_t rounds, double* d, uint8_t* has, double* tmp,
                            uint8_t* tmp_has);
 
+// Harmonic fill of the gaps before diffusion: the displacement of every
+// solitary vertex that is connected (through solitary vertices) to one with a
+// displacement becomes the discrete harmonic extension of the displacements
+// around its gap (each the mean of its four neighbours; successive
+// over-relaxation, at most max_sweeps sweeps or until no component changes by
+// more than tol_mm). A plain diffusion copies the sideways part of a gap's rim
+// into it, so that a wide target-less patch (the lid over the cup's cavity)
+// converges onto its middle and folds; the harmonic extension of a rim that
+// closes in is a uniform contraction. has[v] becomes 1 for the filled vertices.
+// queue: nv entries. Returns the number of vertices filled.
+uint32_t harmonic_fill(const CubeSphere& m, double* d, uint8_t* has, uint32_t* queue, uint32_t max_sweeps,
+                       double tol_mm);
+
 }  // namespace ffseg

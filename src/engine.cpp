@@ -89,7 +89,9 @@ void StepScratch::carve(Arena& a, const CubeSphere& m) {
   tmp_has = a.alloc<uint8_t>(nv);
   flipping = a.alloc<uint8_t>(nv);
   seq = a.alloc<uint32_t>(m.loop_len);
+  queue = a.alloc<uint32_t>(nv);
   folds.carve(a, m.nv);
+  triangles.carve(a, m);
   pattern.carve(a, m.nv);
 }
 
@@ -255,6 +257,20 @@ constexpr double kWeightFloor = 0.25;
 // Every vertex is tied to its current position with this fraction of lambda_p,
 // so that the system stays positive definite when no vertex has a target.
 constexpr double kAnchor = 1e-3;
+// Harmonic fill of the target-less gaps before diffusion: sweeps and the
+// per-sweep change (mm) at which it stops.
+constexpr uint32_t kFillSweeps = 200;
+constexpr double kFillTolMm = 1e-3;
+
+// Converged: the mean displacement is below convergence_mm and at most
+// kMovingShare of the vertices still move by more than kStillFactor times it
+// (a mean alone calls a mesh converged while one region is still travelling).
+constexpr double kStillFactor = 4.0;
+constexpr double kMovingShare = 0.01;
+
+bool still(const StepReport& r, uint32_t slot, uint32_t nv, double conv) {
+  return r.mean_displacement_mm[slot] < conv && double(r.moving[slot]) <= kMovingShare * nv;
+}
 
 }  // namespace
 
@@ -270,8 +286,7 @@ Err Engine::step(StepReport* r) {
     if (!objects_[i].placed) continue;
     const Err e = step_object(i, r, active < kReportObjects ? active : kReportObjects);
     if (e != Err::ok) return e;
-    if (active < kReportObjects && !(r->mean_displacement_mm[active] < params_.convergence_mm))
-      all_converged = false;
+    if (active < kReportObjects && !still(*r, active, mesh_.nv, params_.convergence_mm)) all_converged = false;
     ++active;
   }
   if (active == 0) {
@@ -361,6 +376,7 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
   lap(kStageSearch);
 
   double moved = 0;
+  uint32_t moving = 0;
   if (naive_) {
     for (uint32_t v = 0; v < nv; ++v) {
       if (!s.has[v]) continue;
@@ -371,8 +387,10 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
         d2 += dv * dv;
       }
       moved += std::sqrt(d2);
+      moving += std::sqrt(d2) > kStillFactor * params_.convergence_mm;
     }
     if (slot < kReportObjects) {
+      r->moving[slot] = moving;
       r->mean_displacement_mm[slot] = moved / nv;
       r->with_target[slot] = found;
     }
@@ -388,6 +406,7 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
   for (uint32_t v = 0; v < nv; ++v)
     for (int a = 0; a < 3; ++a)
       s.disp[3 * size_t(v) + a] = s.has[v] ? s.target[3 * size_t(v) + a] - x[3 * size_t(v) + a] : 0.0;
+  harmonic_fill(mesh_, s.disp, s.has, s.queue, kFillSweeps, kFillTolMm);
   diffuse_displacements(mesh_, params_.diffusion_iterations, s.disp, s.has, s.tmp, s.tmp_has);
   lap(kStageDiffusion);
 
@@ -448,7 +467,7 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
       std::snprintf(msg_, kMsgLen, "step: the solve produced non-finite positions; mesh unchanged");
       return Err::numeric;
     }
-  guard_step(mesh_, x, s.rhs, s.tmp);
+  guard_step(mesh_, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles);
   lap(kStageGuard);
   for (uint32_t v = 0; v < nv; ++v) {
     double d2 = 0;
@@ -458,8 +477,10 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
       x[3 * size_t(v) + a] = nx;
     }
     moved += std::sqrt(d2);
+    moving += std::sqrt(d2) > kStillFactor * params_.convergence_mm;
   }
   if (slot < kReportObjects) {
+    r->moving[slot] = moving;
     r->mean_displacement_mm[slot] = moved / nv;
     r->with_target[slot] = found;
     r->flips_avoided[slot] = avoided;

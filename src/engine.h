@@ -9,6 +9,7 @@
 #include "cubesphere.h"
 #include "intensity_model.h"
 #include "smoothing.h"
+#include "mesh_intersection.h"
 #include "self_intersection.h"
 #include "volume.h"
 
@@ -108,6 +109,8 @@ struct StepReport {
   uint32_t flips_avoided[kReportObjects] = {};
   uint32_t folds_avoided[kReportObjects] = {};
   uint32_t border_vertices[kReportObjects] = {};
+  // Vertices that moved more than kStillFactor * convergence_mm this step.
+  uint32_t moving[kReportObjects] = {};
   uint64_t stage_us[kStageCount] = {};
 };
 
@@ -124,7 +127,9 @@ struct StepScratch {
   uint8_t* tmp_has = nullptr; // nv
   uint8_t* flipping = nullptr;// nv
   uint32_t* seq = nullptr;    // loop_len
+  uint32_t* queue = nullptr;  // nv
   IntersectionScratch folds;
+  TriangleScratch triangles;
   TwoRingGraph pattern;
   EnvelopeCholesky solver;
   void carve(Arena& a, const CubeSphere& m);

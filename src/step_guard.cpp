@@ -7,6 +7,10 @@ namespace ffseg {
 namespace {
 
 constexpr int kMaxHalvings = 6;
+constexpr int kGlobalHalvings = 2;
+constexpr int kLocalRounds = 8;
+constexpr double kMinShare = 1.0 / 64;
+constexpr double kTaper = 0.125;
 // Adjacent triangles whose normals meet at more than 120 degrees form a fold.
 constexpr double kFoldCos = -0.5;
 
@@ -102,8 +106,16 @@ uint32_t mark_violations(const CubeSphere& m, const double* x_old, const double*
 
 namespace {
 
-bool violates(const CubeSphere& m, const double* x_old, const double* xs) {
-  return mark_violations(m, x_old, xs, nullptr) > 0;
+bool violates(const CubeSphere& m, const double* x_old, const double* xs, TriangleScratch& ts) {
+  return mark_violations(m, x_old, xs, nullptr) > 0 || mark_intersections(m, xs, ts, nullptr) > 0;
+}
+
+void relax(const CubeSphere& m, double* share, size_t v) {
+  const uint32_t* nb = m.nbr + 4 * v;
+  for (int k = 0; k < 4; ++k) {
+    const double lim = share[nb[k]] + kTaper;
+    if (share[v] > lim) share[v] = lim;
+  }
 }
 
 void blend(size_t nv, const double* x_old, const double* x_new, double s, double* xs) {
@@ -116,31 +128,73 @@ void blend(size_t nv, const double* x_old, const double* x_new, double s, double
 
 }  // namespace
 
-double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs) {
-  // A line search along the solved update: the largest s in {1, 1/2, ...,
-  // 1/64} (else 0) that turns no triangle by 90 degrees and folds no edge.
-  // Scaling the whole update keeps it smooth; moving single vertices back would
-  // leave spikes.
+double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
+                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts) {
+  // First a line search along the whole solved update: the largest s in
+  // {1, 1/2, 1/4} that turns no triangle by 90 degrees and folds no edge.
+  // Scaling the whole update keeps it smooth.
   const size_t nv = m.nv;
   double s = 1.0;
   blend(nv, x_old, x_new, s, xs);
   int halvings = 0;
-  while (violates(m, x_old, xs)) {
-    if (++halvings > kMaxHalvings) {
-      s = 0;
-      break;
-    }
+  while (violates(m, x_old, xs, ts) && halvings < kGlobalHalvings) {
+    ++halvings;
     s *= 0.5;
     blend(nv, x_old, x_new, s, xs);
   }
-  if (s < 1.0)
+  for (size_t v = 0; v < nv; ++v) share[v] = s;
+  // Still offending: one region holds the step back. Its vertices (and their
+  // neighbours) halve their share, shares taper back over a few rings around
+  // them, so the rest of the mesh keeps moving; after kLocalRounds the whole
+  // update is halved on top (down to nothing).
+  auto blend_shares = [&](double g) {
     for (size_t v = 0; v < nv; ++v)
       for (int c = 0; c < 3; ++c) {
-        double& p = x_new[c * nv + v];
         const double o = x_old[3 * v + c];
-        p = o + s * (p - o);
+        xs[3 * v + c] = o + g * share[v] * (x_new[c * nv + v] - o);
       }
-  return s;
+  };
+  bool clean = halvings < kGlobalHalvings || !violates(m, x_old, xs, ts);
+  for (int round = 0; round < kLocalRounds && !clean; ++round) {
+    for (size_t v = 0; v < nv; ++v) mark[v] = 0;
+    mark_violations(m, x_old, xs, mark);
+    mark_intersections(m, xs, ts, mark);
+    for (size_t v = 0; v < nv; ++v) {
+      grow[v] = mark[v];
+      if (!mark[v]) continue;
+      const uint32_t* nb = m.nbr + 4 * v;
+      for (int k = 0; k < 4; ++k) grow[nb[k]] = 1;
+    }
+    for (size_t v = 0; v < nv; ++v)
+      if (grow[v]) share[v] = share[v] * 0.5 < kMinShare ? 0.0 : share[v] * 0.5;
+    for (int sweep = 0; sweep < 2; ++sweep) {
+      for (size_t v = 0; v < nv; ++v) relax(m, share, v);
+      for (size_t v = nv; v-- > 0;) relax(m, share, v);
+    }
+    blend_shares(1.0);
+    clean = !violates(m, x_old, xs, ts);
+  }
+  double g = 1.0;
+  for (int h = 0; !clean; ++h) {
+    if (h >= kMaxHalvings) {
+      g = 0;
+      break;
+    }
+    g *= 0.5;
+    blend_shares(g);
+    clean = !violates(m, x_old, xs, ts);
+  }
+  double kept = 0;
+  for (size_t v = 0; v < nv; ++v) {
+    const double f = g * share[v];
+    kept += f;
+    for (int c = 0; c < 3; ++c) {
+      double& p = x_new[c * nv + v];
+      const double o = x_old[3 * v + c];
+      p = o + f * (p - o);
+    }
+  }
+  return nv ? kept / double(nv) : 1.0;
 }
 
 }  // namespace ffseg

@@ -7,6 +7,7 @@
 #include <cstdint>
 
 #include "cubesphere.h"
+#include "mesh_intersection.h"
 
 namespace ffseg {
 
@@ -14,7 +15,10 @@ namespace ffseg {
 // columns of nv (x_new[c * nv + v]), scaled back in place towards x_old;
 // xs: 3 * nv scratch. Returns the fraction of the update kept (1 when nothing
 // turned or folded).
-double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs);
+// share (nv doubles), mark and grow (nv bytes) are scratch. Returns the mean
+// share of the update kept (1 when nothing turned or folded).
+double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
+                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts);
 
 // The same test at positions xs (3 per vertex): sets mark[v] = 1 for the
 // vertices of every triangle that turned by 90 degrees or more and of every

@@ -495,3 +495,203 @@ TEST_CASE("cli: --param knows every ffseg_params field") {
   CHECK_MESSAGE(sizeof(ffseg_params) == 128,
                 "ffseg_params changed: add the new field to kParamFields in tools/cli/cmd_segment.cpp");
 }
+
+// ---- --sphere-from-label --------------------------------------------------------
+namespace {
+
+// The deepest voxel of `label` by brute force (the oracle for the EDT-based
+// option): for every label voxel the distance in mm to the nearest other voxel
+// centre; the largest wins, ties to the lowest linear index. The label must
+// not touch the grid's faces (then voxels beyond the grid never matter).
+void deepest_by_brute_force(const NiftiImage& lm, int label, std::array<int, 3>* ijk, double* depth) {
+  const int* d = lm.dims;
+  std::vector<std::array<int, 3>> in, out;
+  size_t idx = 0;
+  for (int k = 0; k < d[2]; ++k)
+    for (int j = 0; j < d[1]; ++j)
+      for (int i = 0; i < d[0]; ++i, ++idx) {
+        if (lm.data[idx] == label) {
+          REQUIRE((i > 0 && j > 0 && k > 0 && i < d[0] - 1 && j < d[1] - 1 && k < d[2] - 1));
+          in.push_back({i, j, k});
+        } else {
+          out.push_back({i, j, k});
+        }
+      }
+  REQUIRE(!in.empty());
+  *depth = -1;
+  for (const auto& p : in) {
+    double best = 1e300;
+    for (const auto& q : out) {
+      double s = 0;
+      for (int a = 0; a < 3; ++a) s += std::pow((p[size_t(a)] - q[size_t(a)]) * lm.spacing[a], 2);
+      best = std::min(best, s);
+    }
+    if (std::sqrt(best) > *depth) {
+      *depth = std::sqrt(best);
+      *ijk = p;
+    }
+  }
+}
+
+// "ffseg: sphere from label L: centre (x, y, z) mm, radius r mm" -> x, y, z, r.
+bool parse_label_line(const std::string& err, int label, double v[4]) {
+  const std::string key = "sphere from label " + std::to_string(label) + ": centre (";
+  const size_t p = err.find(key);
+  if (p == std::string::npos) return false;
+  return std::sscanf(err.c_str() + p + key.size(), "%lf, %lf, %lf) mm, radius %lf mm", &v[0], &v[1], &v[2], &v[3]) == 4;
+}
+
+const char* const kAalPath = "/usr/share/mricron/templates/aal.nii.gz";
+bool no_aal() { return !fs::exists(kAalPath); }
+
+}  // namespace
+
+TEST_CASE("cli: --sphere-from-label places the protocol sphere at the label's deepest voxel") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {1});
+  write(s / "ball.nii.gz", b.image);
+  // A label map on the same dims but another affine (shifted by 2, -1, 2 voxels):
+  // label 7 is a lopsided snowman (a ball of 6 mm with one of 4 mm beside it),
+  // label 9 a small ball elsewhere.
+  NiftiImage lm = b.truth;
+  std::fill(lm.data.begin(), lm.data.end(), uint8_t(0));
+  lm.index_to_world[3] += 2.4;
+  lm.index_to_world[7] -= 1.0;
+  lm.index_to_world[11] += 3.0;
+  size_t idx = 0;
+  for (int k = 0; k < lm.dims[2]; ++k)
+    for (int j = 0; j < lm.dims[1]; ++j)
+      for (int i = 0; i < lm.dims[0]; ++i, ++idx) {
+        const double x = 1.2 * i, y = 1.0 * j, z = 1.5 * k;  // mm from the first voxel
+        const auto in_ball = [&](double cx, double cy, double cz, double r) {
+          return (x - cx) * (x - cx) + (y - cy) * (y - cy) + (z - cz) * (z - cz) <= r * r;
+        };
+        if (in_ball(20.1, 17.3, 16.0, 6.0) || in_ball(27.0, 17.0, 16.5, 4.0)) lm.data[idx] = 7;
+        else if (in_ball(8.0, 8.0, 8.0, 3.0)) lm.data[idx] = 9;
+      }
+  write(s / "lab.nii.gz", lm);
+  std::string err;
+  REQUIRE_MESSAGE(nifti_read_file(s / "lab.nii.gz", &lm, &err), err);  // the affine as stored (float32)
+  std::array<int, 3> want{};
+  double depth = 0;
+  deepest_by_brute_force(lm, 7, &want, &depth);
+  CHECK(depth > 5.0);  // inside the big ball, not at a face
+  const double wijk[3] = {double(want[0]), double(want[1]), double(want[2])};
+  double centre[3];
+  for (int r = 0; r < 3; ++r)
+    centre[r] = lm.index_to_world[4 * r] * wijk[0] + lm.index_to_world[4 * r + 1] * wijk[1] +
+                lm.index_to_world[4 * r + 2] * wijk[2] + lm.index_to_world[4 * r + 3];
+
+  // Objects in command-line order: label 7, a --sphere, label 9.
+  const Run r = ffseg(s, "segment " + (s / "ball.nii.gz") + " --target binary --sphere-from-label " +
+                             (s / "lab.nii.gz") + ":7 --sphere 4,27,12,4 --sphere-from-label=" + (s / "lab.nii.gz") +
+                             ":9 --mesh-resolution 5 --max-steps 2 --out " + (s / "out"));
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  double line[4];
+  REQUIRE(parse_label_line(r.err, 7, line));
+  for (int a = 0; a < 3; ++a) CHECK(line[a] == doctest::Approx(centre[a]).epsilon(1e-5));
+  CHECK(line[3] == doctest::Approx(depth / 2).epsilon(1e-5));
+  CHECK(parse_label_line(r.err, 9, line));
+  CHECK(r.err.find("sphere from label 7") < r.err.find("sphere from label 9"));
+
+  const Json rep = parse_json(slurp(s / "out/report.json"));
+  REQUIRE(rep.get("objects")->size() == 3);
+  const Json& o1 = (*rep.get("objects"))[0];
+  CHECK(o1.get("sphere_source")->as_string() == "label 7 of lab.nii.gz");
+  const Json* sp = o1.get("sphere");
+  for (size_t a = 0; a < 3; ++a) {
+    CHECK((*sp->get("center_mm"))[a].as_number() == doctest::Approx(centre[a]).epsilon(1e-9));
+    CHECK((*sp->get("label_voxel"))[a].as_number() == want[a]);
+  }
+  CHECK(sp->get("radius_mm")->as_number() == doctest::Approx(depth / 2).epsilon(1e-6));
+  CHECK(sp->get("depth_mm")->as_number() == doctest::Approx(depth).epsilon(1e-6));
+  CHECK(sp->get("label")->as_number() == 7);
+  CHECK(sp->get("label_map")->as_string() == s / "lab.nii.gz");
+  const Json& o2 = (*rep.get("objects"))[1];
+  CHECK(o2.get("sphere_source")->as_string() == "command line");
+  CHECK((*o2.get("sphere")->get("center_mm"))[1].as_number() == 27.0);
+  CHECK(o2.get("sphere")->get("label_map") == nullptr);
+  const Json& o3 = (*rep.get("objects"))[2];
+  CHECK(o3.get("sphere_source")->as_string() == "label 9 of lab.nii.gz");
+
+  // --quiet silences the line; the report still says where the sphere came from.
+  const Run q = ffseg(s, "segment " + (s / "ball.nii.gz") + " --target binary --sphere-from-label " +
+                             (s / "lab.nii.gz") + ":7 --mesh-resolution 5 --max-steps 1 --quiet --out " + (s / "q"));
+  REQUIRE(q.code == 0);
+  CHECK(q.err.empty());
+  CHECK((*parse_json(slurp(s / "q/report.json")).get("objects"))[0].get("sphere_source")->as_string() ==
+        "label 7 of lab.nii.gz");
+}
+
+TEST_CASE("cli: --sphere-from-label on a label map of other dims exits 3 and writes nothing") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {1});
+  write(s / "ball.nii.gz", b.image);
+  NiftiImage small = b.truth;
+  small.dims[2] = 23;
+  small.data.resize(small.voxel_count());
+  write(s / "small.nii.gz", small);
+  const Run r = ffseg(s, "segment " + (s / "ball.nii.gz") + " --target binary --sphere 4,27,12,4 --sphere-from-label " +
+                             (s / "small.nii.gz") + ":1 --mesh-resolution 5 --max-steps 2 --out " + (s / "out"));
+  CHECK(r.code == 3);
+  CHECK(r.err.rfind("ffseg: error: grids differ: dimensions differ (40x36x24 vs 40x36x23)", 0) == 0);
+  CHECK(r.err.find("small.nii.gz") != std::string::npos);
+  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+  CHECK_FALSE(fs::exists(s / "out"));
+  for (const std::string& n : s.entries()) CHECK_MESSAGE(n.find("ffseg-") == std::string::npos, n);
+  // An unreadable label map is malformed input too.
+  const Run m = ffseg(s, "segment " + (s / "ball.nii.gz") + " --sphere-from-label " + (s / "missing.nii.gz") +
+                             ":1 --out " + (s / "out"));
+  CHECK(m.code == 3);
+  CHECK(m.err.rfind("ffseg: error: cannot read ", 0) == 0);
+  CHECK_FALSE(fs::exists(s / "out"));
+}
+
+TEST_CASE("cli: --sphere-from-label with an absent label or a malformed value exits 2") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {5});
+  write(s / "ball.nii.gz", b.image);
+  write(s / "truth.nii.gz", b.truth);
+  const std::string head = "segment " + (s / "ball.nii.gz") + " --target binary --max-steps 2 --out " + (s / "out") +
+                           " --sphere-from-label ";
+  {
+    const Run r = ffseg(s, head + (s / "truth.nii.gz") + ":42");
+    CHECK(r.code == 2);
+    CHECK(r.err.rfind("ffseg: error: --sphere-from-label: label 42 has no voxel in ", 0) == 0);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK_FALSE(fs::exists(s / "out"));
+  }
+  for (const std::string& bad : {s / "truth.nii.gz", s / "truth.nii.gz:", s / "truth.nii.gz:x",
+                                 s / "truth.nii.gz:0", std::string(":5")}) {
+    CAPTURE(bad);
+    const Run r = ffseg(s, head + bad);
+    CHECK(r.code == 2);
+    CHECK(r.err.rfind("ffseg: error: --sphere-from-label", 0) == 0);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK_FALSE(fs::exists(s / "out"));
+  }
+  // The label present: the same command works.
+  const Run ok = ffseg(s, head + (s / "truth.nii.gz") + ":5 --mesh-resolution 5");
+  INFO("stderr: " << ok.err);
+  CHECK(ok.code == 0);
+}
+
+TEST_CASE("cli: --sphere-from-label on AAL label 73 gives the putamen sphere of the protocol" *
+          doctest::skip(no_aal())) {
+  // Skipped (not failed) when Debian's mricron-data is not installed.
+  Scratch s;
+  const Run r = ffseg(s, std::string("segment ") + kAalPath + " --target binary --sphere-from-label " + kAalPath +
+                             ":73 --mesh-resolution 5 --max-steps 1 --out " + (s / "out"));
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  double v[4];
+  REQUIRE(parse_label_line(r.err, 73, v));
+  const double want[3] = {-20, 14, -4};
+  for (int a = 0; a < 3; ++a) CHECK(std::fabs(v[a] - want[a]) <= 1.0);
+  CHECK(std::fabs(v[3] - 2.92) <= 0.05);
+  const Json rep = parse_json(slurp(s / "out/report.json"));
+  const Json& o = (*rep.get("objects"))[0];
+  CHECK(o.get("sphere_source")->as_string() == "label 73 of aal.nii.gz");
+  CHECK(std::fabs(o.get("sphere")->get("radius_mm")->as_number() - 2.92) <= 0.05);
+}
