@@ -41,14 +41,14 @@ test: deps
 # The main job: segment the left putamen in the Colin27 T1 MRI and compare it
 # with its AAL label (73). The sphere follows the evaluation protocol: centre =
 # the label voxel farthest from the label's border (-20, 14, -4 mm), radius =
-# half that distance (2.92 mm); tests/test_colin27.cpp computes both.
+# half that distance (2.92 mm); --sphere-from-label computes both.
 # Then chapter 4 on a real complex shape: the brain mask (ch2bet), binary.
 MRI := /usr/share/mricron/templates
 DEMO_OUT ?= out
 demo: deps
 	$(MAKE) build
 	mkdir -p $(DEMO_OUT)
-	./$(BUILD)/ffseg segment $(MRI)/ch2.nii.gz --sphere -20,14,-4,2.92 --mesh-resolution 12 \
+	./$(BUILD)/ffseg segment $(MRI)/ch2.nii.gz --sphere-from-label $(MRI)/aal.nii.gz:73 --mesh-resolution 12 \
 	  --truth $(MRI)/aal.nii.gz --truth-labels 73 --names putamen_L --out $(DEMO_OUT)/putamen_L --force
 	./$(BUILD)/ffseg segment $(MRI)/ch2bet.nii.gz --target binary --sphere 0,-17,19,80 \
 	  --names brain --out $(DEMO_OUT)/brain --force

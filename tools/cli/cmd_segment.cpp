@@ -12,11 +12,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <map>
 #include <memory>
 
 #include "cli.h"
 #include "ffseg.h"
 #include "mesh_io.h"
+#include "metrics.h"
 #include "overlay.h"
 #include "report_json.h"
 
@@ -110,6 +112,11 @@ struct SphereArg {
   double c[4];   // centre (mm or voxel) and radius (mm)
   bool voxel;
   std::string text;
+  // --sphere-from-label: c[] is filled in once the label map has been read.
+  std::string label_path;  // empty for --sphere / --sphere-voxel
+  int64_t label = 0;
+  std::array<int, 3> label_ijk{};  // the deepest voxel of the label
+  double depth_mm = 0;             // its distance to the label's border
 };
 
 SphereArg parse_sphere(const std::string& opt, const std::string& v) {
@@ -123,6 +130,57 @@ SphereArg parse_sphere(const std::string& opt, const std::string& v) {
   s.voxel = opt == "--sphere-voxel";
   s.text = opt + " " + v;
   return s;
+}
+
+// --sphere-from-label LABELS:L (the last ':' separates the label, so the path may hold ':').
+SphereArg parse_sphere_from_label(const std::string& opt, const std::string& v) {
+  const size_t colon = v.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == v.size())
+    fail(kExitUsage, opt + ": expected LABELS.nii.gz:L (a label map and a label number), got '" + v + "'");
+  SphereArg s;
+  std::fill(s.c, s.c + 4, 0.0);
+  s.voxel = false;
+  s.text = opt + " " + v;
+  s.label_path = v.substr(0, colon);
+  s.label = parse_int(v.substr(colon + 1), opt + " label", 1, 2147483647LL);
+  return s;
+}
+
+// The evaluation-protocol sphere (PEERS.md) of every --sphere-from-label object:
+// centre = the label voxel farthest from the label's border (Euclidean distance
+// in mm; beyond the grid counts as outside), radius = half that distance, the
+// centre taken to world mm with the label map's own affine. Each label map is
+// read once; `known` holds maps already in memory (the --truth map), by path.
+void resolve_label_spheres(std::vector<SphereArg>* spheres, const ffseg_tools::NiftiImage& img,
+                           const std::string& volume_path,
+                           std::map<std::string, const ffseg_tools::NiftiImage*> known, bool quiet) {
+  std::vector<std::unique_ptr<ffseg_tools::NiftiImage>> owned;
+  for (SphereArg& s : *spheres) {
+    if (s.label_path.empty()) continue;
+    const ffseg_tools::NiftiImage*& lm = known[s.label_path];
+    if (!lm) {
+      owned.push_back(std::make_unique<ffseg_tools::NiftiImage>(read_image(s.label_path)));
+      lm = owned.back().get();
+    }
+    if (lm->dims[0] != img.dims[0] || lm->dims[1] != img.dims[1] || lm->dims[2] != img.dims[2])
+      fail(kExitInput, "grids differ: dimensions differ (" + std::to_string(img.dims[0]) + "x" +
+                           std::to_string(img.dims[1]) + "x" + std::to_string(img.dims[2]) + " vs " +
+                           std::to_string(lm->dims[0]) + "x" + std::to_string(lm->dims[1]) + "x" +
+                           std::to_string(lm->dims[2]) + ") between " + volume_path +
+                           " and --sphere-from-label " + s.label_path);
+    size_t count = 0;
+    const std::vector<uint8_t> mask = label_mask(*lm, s.label, &count);
+    if (count == 0 || !ffseg_tools::find_deepest_voxel(mask.data(), lm->dims, lm->spacing, &s.label_ijk, &s.depth_mm))
+      fail(kExitUsage, "--sphere-from-label: label " + std::to_string(s.label) + " has no voxel in " + s.label_path);
+    const double ijk[3] = {double(s.label_ijk[0]), double(s.label_ijk[1]), double(s.label_ijk[2])};
+    const std::array<double, 3> centre = voxel_to_world(lm->index_to_world, ijk);
+    for (int a = 0; a < 3; ++a) s.c[a] = centre[size_t(a)];
+    s.c[3] = s.depth_mm / 2;
+    if (!quiet)
+      std::fprintf(stderr, "ffseg: sphere from label %lld: centre (%s, %s, %s) mm, radius %s mm\n",
+                   static_cast<long long>(s.label), format_double(s.c[0]).c_str(), format_double(s.c[1]).c_str(),
+                   format_double(s.c[2]).c_str(), format_double(s.c[3]).c_str());
+  }
 }
 
 bool valid_name(const std::string& n) {
@@ -231,11 +289,12 @@ const char* kStageNames[FFSEG_STAGE_COUNT] = {"search",   "flips",    "diffusion
 
 namespace {
 const char* const kSegmentUsageText =
-    "usage: ffseg segment VOLUME (--sphere X,Y,Z,R | --sphere-voxel I,J,K,R)... --out DIR [options]\n"
+    "usage: ffseg segment VOLUME (--sphere X,Y,Z,R | --sphere-voxel I,J,K,R |\n"
+    "                             --sphere-from-label LABELS:L)... --out DIR [options]\n"
     "\n"
-    "Places one sphere mesh per --sphere / --sphere-voxel (object 1, 2, ... in the\n"
-    "order given), deforms them all until they converge or --max-steps is reached,\n"
-    "and writes into DIR:\n"
+    "Places one sphere mesh per --sphere / --sphere-voxel / --sphere-from-label\n"
+    "(object 1, 2, ... in the order given), deforms them all until they converge or\n"
+    "--max-steps is reached, and writes into DIR:\n"
     "  NAME.ply        each object's closed triangle mesh in world mm (format: --mesh-format)\n"
     "  labels.nii.gz   label map on the input grid: object k -> label k (or its\n"
     "                  --truth-labels number); where objects overlap the first wins\n"
@@ -249,6 +308,12 @@ const char* const kSegmentUsageText =
     "objects:\n"
     "  --sphere X,Y,Z,R        centre in world mm (the NIfTI sform, else qform), radius in mm\n"
     "  --sphere-voxel I,J,K,R  centre in voxel indices (may be fractional), radius in mm\n"
+    "  --sphere-from-label LABELS:L\n"
+    "                          the evaluation-protocol sphere of label L of the label\n"
+    "                          map LABELS (same dims as VOLUME): centre = the label's\n"
+    "                          voxel farthest from its border (Euclidean, mm), in world\n"
+    "                          mm by LABELS' affine; radius = half that distance.\n"
+    "                          Printed on stderr; report.json gives sphere_source.\n"
     "  --names a,b,...         file and report names, one per object (default object1, ...);\n"
     "                          letters, digits, '_', '-', '.'\n"
     "\n"
@@ -257,7 +322,7 @@ const char* const kSegmentUsageText =
     "  --force                 replace a non-empty DIR\n"
     "  --mesh-format FMT       ply (binary little endian, default), stl (binary), obj, vtk\n"
     "                          (legacy ASCII POLYDATA)\n"
-    "  -q, --quiet             no progress line\n"
+    "  -q, --quiet             no progress line (nor the --sphere-from-label lines)\n"
     "\n"
     "algorithm:\n"
     "  --target MODE           binary (non-zero voxels are the object) or intensity\n"
@@ -313,6 +378,8 @@ int cmd_segment(int argc, char** argv) {
       return kExitOk;
     } else if (tok == "--sphere" || tok == "--sphere-voxel") {
       spheres.push_back(parse_sphere(tok, args.value(tok)));
+    } else if (tok == "--sphere-from-label") {
+      spheres.push_back(parse_sphere_from_label(tok, args.value(tok)));
     } else if (tok == "--out" || tok == "-o") {
       out_dir = args.value(tok);
       if (out_dir.empty()) fail(kExitUsage, "--out: empty path");
@@ -348,7 +415,9 @@ int cmd_segment(int argc, char** argv) {
     }
   }
   if (volume_path.empty()) fail(kExitUsage, "missing VOLUME");
-  if (spheres.empty()) fail(kExitUsage, "no object: give at least one --sphere X,Y,Z,R or --sphere-voxel I,J,K,R");
+  if (spheres.empty())
+    fail(kExitUsage,
+         "no object: give at least one --sphere X,Y,Z,R, --sphere-voxel I,J,K,R or --sphere-from-label LABELS:L");
   if (spheres.size() > 64) fail(kExitUsage, "at most 64 objects, got " + std::to_string(spheres.size()));
   if (out_dir.empty()) fail(kExitUsage, "missing --out DIR");
   const uint32_t nobj = uint32_t(spheres.size());
@@ -409,6 +478,11 @@ int cmd_segment(int argc, char** argv) {
       if (count == 0)
         fail(kExitUsage, "--truth-labels: label " + std::to_string(labels[k]) + " has no voxel in " + truth_path);
     }
+  }
+  {
+    std::map<std::string, const ffseg_tools::NiftiImage*> known;
+    if (!truth_path.empty()) known[truth_path] = &truth;
+    resolve_label_spheres(&spheres, img, volume_path, known, quiet);
   }
   const double t_read = seconds_since(t_start);
   check_interrupted();
@@ -639,10 +713,20 @@ int cmd_segment(int argc, char** argv) {
     o.set("index", k + 1);
     o.set("name", names[k]);
     o.set("label", labels[k]);
+    const SphereArg& sa = spheres[k];
+    o.set("sphere_source",
+          sa.label_path.empty() ? std::string("command line")
+                                : "label " + std::to_string(sa.label) + " of " + base_name(sa.label_path));
     Json sp = Json::object();
     sp.set("center_mm", Json::array_of(centres_mm[k].data(), 3));
-    sp.set("radius_mm", spheres[k].c[3]);
-    if (spheres[k].voxel) sp.set("center_voxel", Json::array_of(spheres[k].c, 3));
+    sp.set("radius_mm", sa.c[3]);
+    if (sa.voxel) sp.set("center_voxel", Json::array_of(sa.c, 3));
+    if (!sa.label_path.empty()) {
+      sp.set("label_map", sa.label_path);
+      sp.set("label", sa.label);
+      sp.set("label_voxel", Json::array_of(sa.label_ijk.data(), 3));
+      sp.set("depth_mm", sa.depth_mm);
+    }
     o.set("sphere", std::move(sp));
     o.set("mesh", mesh_files[k]);
     o.set("vertices", uint64_t(r.xyz.size() / 3));
