@@ -173,7 +173,8 @@ typedef struct ffseg_params {
   double smoothing_kappa;        /* conductance contrast K of eq. 5.2.2, intensity per mm; 0 = from the
                                     region's noise estimate; [0, 1e9]; default 0 */
   double intensity_gamma;        /* Gamma: a sample is object when g(x) >= Gamma, g the intensity model's
-                                    likelihood divided by its peak; (0, 1); default 0.3 */
+                                    likelihood divided by its peak, and no competing class of the region more
+                                    probable (see src/intensity_model.h); (0, 1); default 0.2 */
   double sigma_floor_fraction;   /* lower bound on each Gaussian's standard deviation as a fraction of the
                                     region's 1st-99th percentile range (a small sphere in clean data
                                     under-estimates the spread); [0, 1]; default 0.05 */

@@ -56,7 +56,7 @@ struct Params {
   uint32_t smoothing_iterations = 5;
   uint32_t bin_min_count = 0;
   double smoothing_kappa = 0;
-  double intensity_gamma = 0.3;
+  double intensity_gamma = 0.2;  // chosen on the right-hemisphere Colin27 structures only (issue #4)
   double sigma_floor_fraction = 0.05;
   double bin_radius = 0;
   double bin_separation = 0;

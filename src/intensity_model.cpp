@@ -305,7 +305,61 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     return ModelStatus::bad_settings;
   }
   const double floor = std::sqrt(roi.noise_sigma() * roi.noise_sigma() + rho * range * rho * range);
-  return fit_samples(samples_, n, floor, s, lut, msg, msg_len);
+  const ModelStatus st = fit_samples(samples_, n, floor, s, lut, msg, msg_len);
+  if (st != ModelStatus::ok || !s.scene_competitors) return st;
+
+  // The scene: the same mixture fit (Algorithm 2 + EM, same floor) over the
+  // requested crop box, subsampled uniformly into the sample buffer (the
+  // sphere's samples are no longer needed).
+  const int64_t* blo = roi.lo();
+  const int64_t* bhi = roi.hi();
+  const uint64_t total =
+      uint64_t(bhi[0] - blo[0]) * uint64_t(bhi[1] - blo[1]) * uint64_t(bhi[2] - blo[2]);
+  const uint32_t scap = cap_ < kSceneSamples ? cap_ : kSceneSamples;
+  const double qs = total <= scap ? 1.0 : double(scap) / double(total);
+  uint32_t ns = 0;
+  uint64_t ms = 0;
+  double smean = 0;
+  for (int64_t k = blo[2]; k < bhi[2]; ++k)
+    for (int64_t j = blo[1]; j < bhi[1]; ++j)
+      for (int64_t i = blo[0]; i < bhi[0]; ++i) {
+        const bool take = qs >= 1.0 || std::floor(double(ms + 1) * qs) > std::floor(double(ms) * qs);
+        ++ms;
+        if (!take || ns >= scap) continue;
+        const float v = roi.at(i, j, k);
+        if (!std::isfinite(v)) continue;
+        samples_[ns++] = v;
+        smean += v;
+      }
+  if (ns == 0) return st;
+  smean /= ns;
+  double sm2 = 0;
+  for (uint32_t j = 0; j < ns; ++j) sm2 += (samples_[j] - smean) * (samples_[j] - smean);
+  sm2 /= ns;
+  Gaussian1 scene[kMaxComponents];
+  uint32_t scene_bins = 0;
+  const uint32_t sm = fit_mixture(samples_, ns, smean, sm2, floor, s, scene, &scene_bins);
+  // The object's classes: the scene components that claim (highest weighted
+  // density) the mean of some object component. The others compete.
+  bool own[kMaxComponents] = {};
+  for (uint32_t i = 0; i < m_; ++i) {
+    uint32_t best = 0;
+    double bd = -1;
+    for (uint32_t c = 0; c < sm; ++c) {
+      const double d = comp_[i].mean - scene[c].mean;
+      const double w = scene[c].weight / std::sqrt(scene[c].var) * std::exp(-0.5 * d * d / scene[c].var);
+      if (w > bd) bd = w, best = c;
+    }
+    own[best] = true;
+  }
+  obj_weight_ = 0;
+  sm_ = 0;
+  for (uint32_t c = 0; c < sm; ++c) {
+    if (own[c]) obj_weight_ += scene[c].weight;
+    else scene_[sm_++] = scene[c];
+  }
+  if (sm_ > 0) normalise_and_tabulate(lut);  // the table now includes the competition
+  return st;
 }
 
 ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma_floor,
@@ -336,6 +390,14 @@ ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma
   for (uint32_t j = 0; j < n; ++j)
     if (std::isfinite(x[j])) m2 += (x[j] - mean) * (x[j] - mean);
   m2 /= nf;
+  m_ = fit_mixture(x, n, mean, m2, sigma_floor, s, comp_, &bins_);
+  sm_ = 0;
+  normalise_and_tabulate(lut);
+  return ModelStatus::ok;
+}
+
+uint32_t IntensityModel::fit_mixture(const float* x, uint32_t n, double mean, double m2, double sigma_floor,
+                                     const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found) {
   const double sd = std::sqrt(m2);
   // The scale of the automatic R and S: the floor, else the samples' spread.
   const double ref = sigma_floor > 0 ? sigma_floor : (sd > 0 ? sd : 1.0);
@@ -345,27 +407,25 @@ ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma
   b.min_count = s.bin_min_count > 0 ? s.bin_min_count : std::max<uint32_t>(8, (n + 19) / 20);
   if (b.min_count > n) b.min_count = n;
   Bin bins[kMaxComponents];
-  bins_ = adaptive_binning(x, n, b, bins, kMaxComponents, mixing_stride(n));
-  uint32_t m = bins_ < kMaxComponents ? bins_ : kMaxComponents;
+  *bins_found = adaptive_binning(x, n, b, bins, kMaxComponents, mixing_stride(n));
+  uint32_t m = *bins_found < kMaxComponents ? *bins_found : kMaxComponents;
   const double vfloor = sigma_floor * sigma_floor;
   if (m == 0) {  // every bin fell under N_m: one component over all samples
-    comp_[0].weight = 1;
-    comp_[0].mean = mean;
-    comp_[0].var = std::max(m2, vfloor);
+    comp[0].weight = 1;
+    comp[0].mean = mean;
+    comp[0].var = std::max(m2, vfloor);
     m = 1;
   } else {
     double total = 0;
     for (uint32_t i = 0; i < m; ++i) total += bins[i].count;
     for (uint32_t i = 0; i < m; ++i) {
-      comp_[i].weight = bins[i].count / total;
-      comp_[i].mean = bins[i].centroid;
-      comp_[i].var = std::max(bins[i].var, vfloor);
+      comp[i].weight = bins[i].count / total;
+      comp[i].mean = bins[i].centroid;
+      comp[i].var = std::max(bins[i].var, vfloor);
     }
   }
-  em_fit(x, n, comp_, &m, s.em_iterations, vfloor);
-  m_ = m;
-  normalise_and_tabulate(lut);
-  return ModelStatus::ok;
+  em_fit(x, n, comp, &m, s.em_iterations, vfloor);
+  return m;
 }
 
 double IntensityModel::density(double v) const {
@@ -379,7 +439,16 @@ double IntensityModel::density(double v) const {
 
 double IntensityModel::g_direct(double v) const {
   if (m_ == 0 || !(v == v)) return 0;
-  const double g = density(v) / peak_;
+  const double dv = density(v);
+  if (sm_ > 0) {  // a competing class of the scene is more probable: not object
+    double rival = 0;
+    for (uint32_t c = 0; c < sm_; ++c) {
+      const double d = v - scene_[c].mean;
+      rival += scene_[c].weight / std::sqrt(scene_[c].var) * std::exp(-0.5 * d * d / scene_[c].var);
+    }
+    if (rival > obj_weight_ * dv) return 0;
+  }
+  const double g = dv / peak_;
   return g < 1 ? g : 1;
 }
 

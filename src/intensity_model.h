@@ -31,6 +31,24 @@
 // applied inside EM (a constrained maximum-likelihood fit), so a component
 // never narrows below it. rho is the one calibration knob of the model.
 //
+// Competing classes of the scene (fit(), scene_competitors, default on). The
+// object model alone says how far a value is from the sphere's intensities, not
+// whether some other tissue explains it better. fit() therefore also fits the
+// same mixture (Algorithm 2 + EM, the same floor) to the whole requested crop
+// (at most kSceneSamples voxels, uniform stride): the scene's tissue classes.
+// The scene components that claim an object component's mean (highest weighted
+// density there) are the object's own classes, of total scene weight a_o; the
+// others compete. A value is then object only if, besides g >= Gamma,
+//   a_o f_obj(v) >= sum_competitors a_c f_c(v),
+// the Bayes decision between the object (its class-conditional density taken
+// from the sphere) and the scene's other classes; g(v) reads 0 where it fails.
+// This lets Gamma be lower (a wider object interval where no other class of the
+// scene competes, e.g. the caudate between CSF and white matter) while a
+// neighbouring class still cuts the interval at the densities' crossing.
+// Colin27 (issue #4): with Gamma chosen on the right-hemisphere structures only
+// (0.2, engine default), left structures held out. Threshold-free: no new
+// constant beyond the sample cap.
+//
 // Defaults for binning, derived from the same scale: R = 2 sigma_floor (a bin
 // holds values within 2 sigma of its centre), S = 4 sigma_floor (a new bin only
 // beyond 4 sigma of every existing one), N_m = max(8, 5% of the samples).
@@ -101,6 +119,7 @@ struct IntensityModelSettings {
   uint32_t bin_min_count = 0;         // N_m, samples; 0: max(8, 5% of the samples)
   uint32_t em_iterations = 100;
   double sigma_floor_fraction = 0.08; // rho, fraction of the crop's p1..p99 range
+  bool scene_competitors = true;      // fit(): the crop's other classes compete (see the header note)
 };
 
 // Which values are representable (for the lookup table).
@@ -117,6 +136,7 @@ class IntensityModel {
   static constexpr uint32_t kMaxBins = 64;
   static constexpr uint32_t kLutMax = 65536;
   static constexpr uint32_t kDefaultSamples = 65536;  // a suggested cap (256 KB)
+  static constexpr uint32_t kSceneSamples = 16384;    // cap on the crop voxels of the scene mixture
 
   // max_samples: cap on the voxels drawn from the sphere.
   void carve(Arena& a, uint32_t max_samples);
@@ -131,7 +151,7 @@ class IntensityModel {
                           const LutSpec& lut, char* msg = nullptr, size_t msg_len = 0);
 
   bool valid() const { return m_ > 0; }
-  void reset() { m_ = 0; lut_n_ = 0; }
+  void reset() { m_ = 0; sm_ = 0; lut_n_ = 0; }
   // Peak-normalised likelihood in [0, 1] (see the header note); table when there is one.
   double g(double v) const {
     if (lut_n_ > 0) {
@@ -148,6 +168,9 @@ class IntensityModel {
   double g_direct(double v) const;
 
   uint32_t components() const { return m_; }
+  uint32_t competitors() const { return sm_; }
+  const Gaussian1& competitor(uint32_t i) const { return scene_[i]; }
+  double object_scene_weight() const { return obj_weight_; }
   const Gaussian1& component(uint32_t i) const { return comp_[i]; }
   uint32_t bins_found() const { return bins_; }   // adaptive binning's count, before the cap
   uint32_t sample_count() const { return n_; }
@@ -158,6 +181,9 @@ class IntensityModel {
 
  private:
   double density(double v) const;  // sum_i a_i f_i(v) * sqrt(2 pi)
+  // Algorithm 2 + EM over x (mean, m2: the samples' mean and variance) into comp; returns m.
+  static uint32_t fit_mixture(const float* x, uint32_t n, double mean, double m2, double sigma_floor,
+                              const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found);
   void normalise_and_tabulate(const LutSpec& lut);
 
   float* samples_ = nullptr;
@@ -167,6 +193,9 @@ class IntensityModel {
   uint32_t m_ = 0;
   uint32_t bins_ = 0;
   Gaussian1 comp_[kMaxComponents];
+  Gaussian1 scene_[kMaxComponents];  // the scene's competing classes (weights: scene fractions)
+  uint32_t sm_ = 0;                  // their number; 0: g alone decides
+  double obj_weight_ = 0;            // scene fraction of the object's own classes
   double peak_ = 1;
   double sigma_floor_ = 0;
   uint32_t lut_n_ = 0;

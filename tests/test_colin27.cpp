@@ -71,6 +71,9 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
   if (const char* e = std::getenv("FFSEG_SR")) p.search_range_mm = std::atof(e);
   if (const char* e = std::getenv("FFSEG_ALPHA")) p.step_size = std::atof(e);
   if (const char* e = std::getenv("FFSEG_SMI")) p.smoothing_iterations = uint32_t(std::atoi(e));
+  if (const char* e = std::getenv("FFSEG_NB")) p.consecutive_background = uint32_t(std::atoi(e));
+  if (const char* e = std::getenv("FFSEG_DIFF")) p.diffusion_iterations = uint32_t(std::atoi(e));
+  if (const char* e = std::getenv("FFSEG_LL")) p.lambda_laplacian = std::atof(e);
   REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
   ffseg_volume v = volume_of(t1);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
@@ -100,14 +103,15 @@ TEST_CASE("colin27 experiment" * doctest::skip()) {
   const std::pair<int, const char*> structures[] = {{73, "putamen L"}, {74, "putamen R"}, {77, "thalamus L"},
                                                     {78, "thalamus R"}, {71, "caudate L"}, {72, "caudate R"},
                                                     {37, "hippocampus L"}, {38, "hippocampus R"}};
-  std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
+  std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms | ml predicted / true |\n"
+              "|---|---|---|---|---|---|---|---|---|\n");
   const char* only = std::getenv("FFSEG_ONLY");
   for (auto& st : structures) {
     if (only && std::string(only).find(std::to_string(st.first)) == std::string::npos) continue;
     const uint32_t n = std::getenv("FFSEG_N") ? uint32_t(std::atoi(std::getenv("FFSEG_N"))) : 33;
     StructureResult r = segment_structure(t1, aal, st.first, st.second, n, 100);
-    std::printf("| %s | %d | %.3f | %.3f | %.2f | %.2f | %d | %.0f |\n", r.name, r.label, r.m.dice, r.m.voe, r.m.assd_mm,
-                r.m.hd95_mm, r.steps, r.ms);
+    std::printf("| %s | %d | %.3f | %.3f | %.2f | %.2f | %d | %.0f | %.2f / %.2f |\n", r.name, r.label, r.m.dice, r.m.voe,
+                r.m.assd_mm, r.m.hd95_mm, r.steps, r.ms, r.m.vol_a_ml, r.m.vol_b_ml);
   }
 }
 
@@ -181,8 +185,10 @@ TEST_CASE("chapter 4 on a real shape: the Colin27 brain mask (ch2bet), n = 49, D
 }
 
 TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, floors on Dice and ASSD") {
-  // Floors guard today's measured result (mesh n = 12, default parameters);
-  // they are below what PEERS.md asks of ffseg for caudate and putamen.
+  // Floors guard today's measured result (mesh n = 12, default parameters)
+  // minus a margin; they are below what PEERS.md asks of ffseg for the caudate.
+  // Defaults (Gamma = 0.2, scene competitors) were chosen on the right-hemisphere
+  // structures (74, 78, 72, 38) only; 73, 77, 71, 37 are held out (issue #4).
   ffseg_tools::NiftiImage t1, aal;
   std::string err;
   REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
@@ -194,8 +200,8 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
   };
   const Case cases[] = {{73, "putamen L", 0.38, 5.7},    {74, "putamen R", 0.48, 4.4},
                         {77, "thalamus L", 0.58, 3.4},   {78, "thalamus R", 0.45, 5.1},
-                        {71, "caudate L", 0.38, 5.2},    {72, "caudate R", 0.40, 5.7},
-                        {37, "hippocampus L", 0.47, 5.5}, {38, "hippocampus R", 0.43, 6.3}};
+                        {71, "caudate L", 0.44, 5.2},    {72, "caudate R", 0.50, 5.7},
+                        {37, "hippocampus L", 0.52, 5.5}, {38, "hippocampus R", 0.43, 6.3}};
   std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
     CAPTURE(c.name);
