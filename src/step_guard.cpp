@@ -143,10 +143,11 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
     blend(nv, x_old, x_new, s, xs);
   }
   for (size_t v = 0; v < nv; ++v) share[v] = s;
-  // Still offending: one region holds the step back. Its vertices (and their
-  // neighbours) halve their share, shares taper back over a few rings around
-  // them, so the rest of the mesh keeps moving; after kLocalRounds the whole
-  // update is halved on top (down to nothing).
+  // Still offending: one region holds the step back. Every share starts again
+  // from 1; the offenders' vertices (and their neighbours) halve theirs, shares
+  // taper back over a few rings around them, so the rest of the mesh keeps
+  // moving at full speed; after kLocalRounds the whole update is halved on top
+  // (down to nothing).
   auto blend_shares = [&](double g) {
     for (size_t v = 0; v < nv; ++v)
       for (int c = 0; c < 3; ++c) {
@@ -155,6 +156,10 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
       }
   };
   bool clean = halvings < kGlobalHalvings || !violates(m, x_old, xs, ts);
+  if (!clean) {
+    for (size_t v = 0; v < nv; ++v) share[v] = 1.0;
+    blend_shares(1.0);
+  }
   for (int round = 0; round < kLocalRounds && !clean; ++round) {
     for (size_t v = 0; v < nv; ++v) mark[v] = 0;
     mark_violations(m, x_old, xs, mark);
