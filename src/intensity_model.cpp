@@ -25,6 +25,59 @@ void say(char* msg, size_t n, const char* text) {
   if (msg && n) std::snprintf(msg, n, "%s", text);
 }
 
+// E-step over all samples (eq. 5.2.4) with the responsibilities' sums for the
+// M-step; M components as a compile-time count so the per-sample arrays live
+// in registers. Per sample and component the operations and their order are
+// those of the plain loop, so the sums are bit-identical for every M.
+template <uint32_t M>
+void e_step(const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih, double* Z,
+            double* Zx, double* Zxx, double* ll_io) {
+  double laa[M], mua[M], iha[M], z0[M], z1[M], z2[M];
+  for (uint32_t i = 0; i < M; ++i) laa[i] = la[i], mua[i] = mu[i], iha[i] = ih[i], z0[i] = Z[i], z1[i] = Zx[i], z2[i] = Zxx[i];
+  double ll = *ll_io;
+  for (uint32_t j = 0; j < n; ++j) {
+    if (!std::isfinite(x[j])) continue;
+    const double xj = double(x[j]) - shift;
+    double l[M], mx = -INFINITY;
+    for (uint32_t i = 0; i < M; ++i) {
+      const double d = xj - mua[i];
+      l[i] = laa[i] - d * d * iha[i];
+      mx = l[i] > mx ? l[i] : mx;
+    }
+    // exp(0) is exactly 1: the largest term (at least one) needs no call.
+    double s = 0;
+    for (uint32_t i = 0; i < M; ++i) {
+      const double e = l[i] - mx;
+      s += (l[i] = e == 0 ? 1.0 : std::exp(e));
+    }
+    ll += mx + std::log(s);
+    const double inv = 1.0 / s;
+    for (uint32_t i = 0; i < M; ++i) {
+      const double z = l[i] * inv;  // z_ij, eq. 5.2.4
+      z0[i] += z;
+      z1[i] += z * xj;
+      z2[i] += z * xj * xj;
+    }
+  }
+  for (uint32_t i = 0; i < M; ++i) Z[i] = z0[i], Zx[i] = z1[i], Zxx[i] = z2[i];
+  *ll_io = ll;
+}
+
+void e_step_dispatch(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
+                     const double* ih, double* Z, double* Zx, double* Zxx, double* ll) {
+  static_assert(IntensityModel::kMaxComponents == 8, "one e_step instance per component count");
+  switch (m) {
+    case 1: e_step<1>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 2: e_step<2>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 3: e_step<3>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 4: e_step<4>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 5: e_step<5>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 6: e_step<6>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 7: e_step<7>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    default: e_step<8>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+  }
+}
+
 }  // namespace
 
 uint32_t mixing_stride(uint32_t n) {
@@ -173,26 +226,7 @@ EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uin
       ih[i] = 0.5 / v[i];
     }
     double ll = 0;
-    for (uint32_t j = 0; j < n; ++j) {
-      if (!std::isfinite(x[j])) continue;
-      const double xj = double(x[j]) - shift;
-      double l[IntensityModel::kMaxComponents], mx = -INFINITY;
-      for (uint32_t i = 0; i < m; ++i) {
-        const double d = xj - mu[i];
-        l[i] = la[i] - d * d * ih[i];
-        mx = l[i] > mx ? l[i] : mx;
-      }
-      double s = 0;
-      for (uint32_t i = 0; i < m; ++i) s += (l[i] = std::exp(l[i] - mx));
-      ll += mx + std::log(s);
-      const double inv = 1.0 / s;
-      for (uint32_t i = 0; i < m; ++i) {
-        const double z = l[i] * inv;  // z_ij, eq. 5.2.4
-        Z[i] += z;
-        Zx[i] += z * xj;
-        Zxx[i] += z * xj * xj;
-      }
-    }
+    e_step_dispatch(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &ll);
     ll = ll / nf - half_log_2pi;
     // M-step (eq. 5.2.5-5.2.7; 5.2.7 is the variance), variance floored.
     uint32_t k = 0;

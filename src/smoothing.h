@@ -46,6 +46,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <cmath>
 
 #include "arena.h"
 #include "volume.h"
@@ -100,10 +101,48 @@ class SmoothedRoi {
   }
   // True when index-space point p lies in the stored region's voxel box
   // [data_lo - 0.5, data_hi - 0.5].
-  bool inside_index(const double p[3]) const;
+  bool inside_index(const double p[3]) const {
+    for (int a = 0; a < 3; ++a)
+      if (!(p[a] >= double(glo_[a]) - 0.5 && p[a] <= double(ghi_[a]) - 0.5)) return false;
+    return true;
+  }
   // Trilinear value at index-space point p, coordinates clamped to the stored
-  // voxel centres (nearest crop voxel beyond the region).
-  double sample_index(const double p[3]) const;
+  // voxel centres (nearest crop voxel beyond the region). Inline: the
+  // correspondence search calls it for every sample along every normal.
+  double sample_index(const double p[3]) const {
+    int64_t off = 0;
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+      double x = p[a];
+      const double l = double(glo_[a]), h = double(ghi_[a] - 1);
+      if (!(x > l)) x = l;  // NaN too
+      if (x > h) x = h;
+      const double fl = std::floor(x);
+      int64_t q = int64_t(fl);
+      f[a] = x - fl;
+      if (q >= ghi_[a] - 1) {
+        q = ghi_[a] - 1;
+        f[a] = 0;
+      }
+      off += (q - glo_[a]) * st_[a];
+    }
+    // Corner c = (dx, dy, dz) = bits 0, 1, 2 of c; weight (wx * wy) * wz. A
+    // corner of weight 0 is skipped (it may lie beyond the stored region).
+    const double wx[2] = {1 - f[0], f[0]}, wy[2] = {1 - f[1], f[1]}, wz[2] = {1 - f[2], f[2]};
+    const double wxy[4] = {wx[0] * wy[0], wx[1] * wy[0], wx[0] * wy[1], wx[1] * wy[1]};
+    const int64_t co[4] = {0, st_[0], st_[1], st_[0] + st_[1]};
+    const float* b = buf_ + off;
+    double acc = 0;
+    for (int dz = 0; dz < 2; ++dz) {
+      const float* bz = b + (dz ? st_[2] : 0);
+      for (int c = 0; c < 4; ++c) {
+        const double wgt = wxy[c] * wz[dz];
+        if (wgt == 0) continue;
+        acc += wgt * bz[co[c]];
+      }
+    }
+    return acc;
+  }
   // Same at a world point (mm).
   double sample_linear(const double w[3]) const;
 

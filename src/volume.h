@@ -4,6 +4,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 namespace ffseg {
 
@@ -43,6 +44,23 @@ class VolumeView {
     return at(i, j, k);
   }
 
+  // Calls f(t, value) for the n voxels (i, j, k) + t e_axis, t = 0 .. n-1, with
+  // the value at() gives; all of them must be inside the grid. One type switch
+  // per row instead of one per voxel.
+  template <class F>
+  void for_each_in_row(int64_t i, int64_t j, int64_t k, int axis, int64_t n, F&& f) const {
+    const unsigned char* p = origin_ + i * strides_[0] + j * strides_[1] + k * strides_[2];
+    const int64_t s = strides_[axis];
+    switch (type_) {
+      case VoxelType::U8: row_loop<uint8_t>(p, s, n, f); break;
+      case VoxelType::I16: row_loop<int16_t>(p, s, n, f); break;
+      case VoxelType::U16: row_loop<uint16_t>(p, s, n, f); break;
+      case VoxelType::I32: row_loop<int32_t>(p, s, n, f); break;
+      case VoxelType::F32: row_loop<float>(p, s, n, f); break;
+      case VoxelType::F64: row_loop<double>(p, s, n, f); break;
+    }
+  }
+
   void world_to_index(const double w[3], double ijk[3]) const;
   void index_to_world(const double ijk[3], double w[3]) const;
   // Direction in index space for a world-space direction (no translation).
@@ -68,6 +86,14 @@ class VolumeView {
 
  private:
   double raw(const unsigned char* p) const;
+  template <class T, class F>
+  void row_loop(const unsigned char* p, int64_t s, int64_t n, F& f) const {
+    for (int64_t t = 0; t < n; ++t, p += s) {
+      T v;
+      std::memcpy(&v, p, sizeof v);
+      f(t, slope_ * double(v) + intercept_);
+    }
+  }
 
   VoxelType type_ = VoxelType::U8;
   const unsigned char* origin_ = nullptr;  // address of voxel (0,0,0)
