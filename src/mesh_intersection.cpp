@@ -6,12 +6,29 @@
 
 namespace ffseg {
 
+namespace {
+// At most nt / kBigShare + 16 triangles lie outside the grid.
+constexpr uint32_t kBigShare = 256;
+}  // namespace
+
 void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
   const uint32_t nt = m.triangle_count();
   tris = a.alloc<uint32_t>(size_t(3) * nt);
   centroid = a.alloc<double>(size_t(3) * nt);
   radius = a.alloc<double>(nt);
+  lo = a.alloc<double>(size_t(3) * nt);
+  hi = a.alloc<double>(size_t(3) * nt);
+  big_cap = nt / kBigShare + 16;
+  big = a.alloc<uint32_t>(big_cap + 1);
+  is_big = a.alloc<uint8_t>(nt);
+  touched = a.alloc<uint8_t>(nt);
+  pair_cap = 2 * nt + 64;
+  pairs = a.alloc<uint32_t>(2 * size_t(pair_cap));
+  face_flags = a.alloc<uint8_t>(m.nfaces);
+  vertex_flags = a.alloc<uint8_t>(m.nv);
+  vertex_marks = a.alloc<uint8_t>(m.nv);
   grid.carve(a, nt);
+  tracked = false;
 }
 
 namespace {
@@ -60,50 +77,258 @@ bool triangles_cross(const CubeSphere& m, const double* x, const uint32_t* a, co
 
 }  // namespace
 
-uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark) {
-  const uint32_t nt = m.triangle_count();
-  triangulate(m, x, s.tris);
-  double rmax = 0, rsum = 0;
-  for (uint32_t t = 0; t < nt; ++t) {
-    const uint32_t* id = s.tris + 3 * size_t(t);
-    double* c = s.centroid + 3 * size_t(t);
+namespace {
+
+// First triangle of face f in triangulate()'s order (quads first, two each).
+inline uint32_t first_triangle(const CubeSphere& m, uint32_t f) {
+  const uint32_t nq = m.nfaces - 8;
+  return f < nq ? 2 * f : nq + f;
+}
+
+// Centroid, bounding box (widened by eps) and bounding radius of triangle t.
+void prepare(const double* x, TriangleScratch& s, uint32_t t, double eps) {
+  const uint32_t* id = s.tris + 3 * size_t(t);
+  double* c = s.centroid + 3 * size_t(t);
+  double* lo = s.lo + 3 * size_t(t);
+  double* hi = s.hi + 3 * size_t(t);
+  const double *p0 = x + 3 * size_t(id[0]), *p1 = x + 3 * size_t(id[1]), *p2 = x + 3 * size_t(id[2]);
+  for (int a = 0; a < 3; ++a) {
+    c[a] = (p0[a] + p1[a] + p2[a]) / 3.0;
+    lo[a] = std::fmin(p0[a], std::fmin(p1[a], p2[a])) - eps;
+    hi[a] = std::fmax(p0[a], std::fmax(p1[a], p2[a])) + eps;
+  }
+  double r2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) d2 += (x[3 * size_t(id[k]) + a] - c[a]) * (x[3 * size_t(id[k]) + a] - c[a]);
+    r2 = std::fmax(r2, d2);
+  }
+  s.radius[t] = std::sqrt(r2);
+}
+
+// Candidate enumeration over the prepared triangles and the grid.
+struct Pairs {
+  const CubeSphere& m;
+  const double* x;
+  TriangleScratch& s;
+  uint8_t* mark;
+  bool record;  // append crossing pairs to s.pairs (s.tracked drops on overflow)
+  uint32_t count = 0;
+
+  bool overlap(uint32_t t, uint32_t u) const {
+    const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t);
+    const double *lu = s.lo + 3 * size_t(u), *hu = s.hi + 3 * size_t(u);
+    return !(lu[0] > ht[0] || lt[0] > hu[0] || lu[1] > ht[1] || lt[1] > hu[1] || lu[2] > ht[2] || lt[2] > hu[2]);
+  }
+  // Overlapping boxes share the cell of their intersection's low corner: the
+  // one cell where the pair counts.
+  bool owns(uint32_t t, uint32_t u, const int64_t* c) const {
+    const double *lt = s.lo + 3 * size_t(t), *lu = s.lo + 3 * size_t(u);
     for (int a = 0; a < 3; ++a)
-      c[a] = (x[3 * size_t(id[0]) + a] + x[3 * size_t(id[1]) + a] + x[3 * size_t(id[2]) + a]) / 3.0;
-    double r2 = 0;
-    for (int k = 0; k < 3; ++k) {
-      double d2 = 0;
-      for (int a = 0; a < 3; ++a) d2 += (x[3 * size_t(id[k]) + a] - c[a]) * (x[3 * size_t(id[k]) + a] - c[a]);
-      r2 = std::fmax(r2, d2);
+      if (s.grid.cell(lt[a] > lu[a] ? lt[a] : lu[a]) != c[a]) return false;
+    return true;
+  }
+  // A pair with overlapping boxes, t < u: the prefilter of bounding spheres,
+  // then the exact crossing test. Returns true to stop (first pair, no mark).
+  bool consider(uint32_t t, uint32_t u) {
+    const double* cu = s.centroid + 3 * size_t(u);
+    const double* ct = s.centroid + 3 * size_t(t);
+    const double dc2 = (cu[0] - ct[0]) * (cu[0] - ct[0]) + (cu[1] - ct[1]) * (cu[1] - ct[1]) + (cu[2] - ct[2]) * (cu[2] - ct[2]);
+    const double reach = s.radius[t] + s.radius[u];
+    if (dc2 > reach * reach) return false;
+    const uint32_t* a = s.tris + 3 * size_t(t);
+    const uint32_t* b = s.tris + 3 * size_t(u);
+    if (!triangles_cross(m, x, a, b)) return false;
+    ++count;
+    if (!mark) return true;
+    for (int k = 0; k < 3; ++k) mark[a[k]] = mark[b[k]] = 1;
+    if (record) {
+      if (s.npairs < s.pair_cap) {
+        s.pairs[2 * size_t(s.npairs)] = t;
+        s.pairs[2 * size_t(s.npairs) + 1] = u;
+        ++s.npairs;
+      } else {
+        s.tracked = false;
+      }
     }
-    s.radius[t] = std::sqrt(r2);
+    return false;
+  }
+  bool ordered(uint32_t t, uint32_t u) { return t < u ? consider(t, u) : consider(u, t); }
+
+  // Every pair of a big box t with a grid box u where skip(u) is false, through
+  // the cells t overlaps, or through all boxes when that would visit more cells
+  // than there are triangles.
+  template <class Skip>
+  bool big_vs_grid(uint32_t t, Skip&& skip) {
+    const uint32_t nt = m.triangle_count();
+    const double* lt = s.lo + 3 * size_t(t);
+    const double* ht = s.hi + 3 * size_t(t);
+    bool stop = false;
+    if (s.grid.cells(lt, ht) <= double(nt)) {
+      s.grid.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* c) {
+        if (!stop && !skip(u) && overlap(t, u) && owns(t, u, c)) stop = ordered(t, u);
+      });
+    } else {
+      for (uint32_t u = 0; u < nt && !stop; ++u)
+        if (!s.is_big[u] && !skip(u) && overlap(t, u)) stop = ordered(t, u);
+    }
+    return stop;
+  }
+  // Every pair of a grid box t with a grid box u where skip(u) is false.
+  template <class Skip>
+  bool grid_vs_grid(uint32_t t, Skip&& skip) {
+    const double* lt = s.lo + 3 * size_t(t);
+    const double* ht = s.hi + 3 * size_t(t);
+    bool stop = false;
+    s.grid.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* c) {
+      if (!stop && u != t && !skip(u) && overlap(t, u) && owns(t, u, c)) stop = ordered(t, u);
+    });
+    return stop;
+  }
+};
+
+// Cell size and big boxes for the prepared triangles; then the grid.
+void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double rmax) {
+  const uint32_t nt = m.triangle_count();
+  double h = 2 * emean + 1e-9 * rmax;
+  for (;;) {
+    s.grid.set_cell_size(h);
+    s.nbig = 0;
+    for (uint32_t t = 0; t < nt; ++t) {
+      s.is_big[t] = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+      s.nbig += s.is_big[t];
+    }
+    if (s.nbig <= s.big_cap) break;
+    h *= 2;
+  }
+  uint32_t k = 0;
+  for (uint32_t t = 0; t < nt; ++t)
+    if (s.is_big[t]) s.big[k++] = t;
+  s.grid.build(s.lo, s.hi, nt, [&](uint32_t t) { return !s.is_big[t]; });
+}
+
+// The whole check from scratch; with record, also keeps the crossing pairs
+// (mark must then be set).
+uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark, bool record) {
+  const uint32_t nt = m.triangle_count();
+  s.tracked = false;
+  triangulate(m, x, s.tris);
+  double rmax = 0, emean = 0;
+  for (uint32_t t = 0; t < nt; ++t) {
+    prepare(x, s, t, 0.0);
+    const double* lo = s.lo + 3 * size_t(t);
+    const double* hi = s.hi + 3 * size_t(t);
+    emean += (hi[0] - lo[0]) + (hi[1] - lo[1]) + (hi[2] - lo[2]);
     rmax = std::fmax(rmax, s.radius[t]);
-    rsum += s.radius[t];
   }
   if (!(rmax > 0) || !std::isfinite(rmax)) return 0;
-  s.grid.build(s.centroid, nt, std::fmax(2 * rsum / nt, 1e-9 * rmax));
-  uint32_t pairs = 0;
-  for (uint32_t t = 0; t < nt; ++t) {
-    const uint32_t* a = s.tris + 3 * size_t(t);
-    bool stop = false;
-    s.grid.for_each_in_ball(s.centroid + 3 * size_t(t), s.radius[t] + rmax, [&](uint32_t u) {
-      if (u <= t || stop) return;
-      const double* cu = s.centroid + 3 * size_t(u);
-      const double* ct = s.centroid + 3 * size_t(t);
-      const double dc2 = (cu[0] - ct[0]) * (cu[0] - ct[0]) + (cu[1] - ct[1]) * (cu[1] - ct[1]) + (cu[2] - ct[2]) * (cu[2] - ct[2]);
-      const double reach = s.radius[t] + s.radius[u];
-      if (dc2 > reach * reach) return;
-      const uint32_t* b = s.tris + 3 * size_t(u);
-      if (!triangles_cross(m, x, a, b)) return;
-      ++pairs;
-      if (!mark) {
-        stop = true;
-        return;
-      }
-      for (int k = 0; k < 3; ++k) mark[a[k]] = mark[b[k]] = 1;
-    });
-    if (stop) break;
+  emean /= 3.0 * nt;
+  // Candidates: pairs whose bounding boxes overlap (a crossing point lies in
+  // both), each box widened by a hair against rounding.
+  s.eps = 1e-9 * (emean + rmax);
+  for (uint32_t q = 0; q < 3 * nt; ++q) {
+    s.lo[q] -= s.eps;
+    s.hi[q] += s.eps;
   }
-  return pairs;
+  layout_grid(m, s, emean, rmax);
+  s.npairs = 0;
+  s.tracked = record;
+  Pairs P{m, x, s, mark, record};
+  auto none = [](uint32_t) { return false; };
+  for (uint32_t i = 0; i < s.nbig; ++i) {
+    const uint32_t t = s.big[i];
+    if (P.big_vs_grid(t, none)) return P.count;
+    for (uint32_t j = i + 1; j < s.nbig; ++j)
+      if (P.overlap(t, s.big[j]) && P.ordered(t, s.big[j])) return P.count;
+  }
+  for (uint32_t t = 0; t < nt; ++t) {
+    if (s.is_big[t]) continue;
+    if (P.grid_vs_grid(t, [&](uint32_t u) { return u < t; })) return P.count;
+  }
+  return P.count;
+}
+
+}  // namespace
+
+uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark) {
+  return full_check(m, x, s, mark, false);
+}
+
+uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
+                                    const uint8_t* moved) {
+  if (!moved || !s.tracked) return full_check(m, x, s, mark, true);
+  const uint32_t nt = m.triangle_count();
+  // Re-split and re-measure the faces around moved vertices.
+  for (uint32_t t = 0; t < nt; ++t) s.touched[t] = 0;
+  uint32_t ntouched = 0;
+  for (uint32_t f = 0; f < m.nfaces; ++f) {
+    const uint32_t* q = m.faces + 4 * size_t(f);
+    const int k = q[3] == kNone ? 3 : 4;
+    bool any = false;
+    for (int i = 0; i < k && !any; ++i) any = moved[q[i]] != 0;
+    if (!any) continue;
+    const uint32_t t0 = first_triangle(m, f);
+    const int c = face_triangles(m, f, s.tris + 3 * size_t(t0), x);
+    for (int i = 0; i < c; ++i) {
+      s.touched[t0 + i] = 1;
+      prepare(x, s, t0 + i, s.eps);
+      ++ntouched;
+    }
+  }
+  double rmax = 0;
+  for (uint32_t t = 0; t < nt; ++t) rmax = std::fmax(rmax, s.radius[t]);
+  if (!(rmax > 0) || !std::isfinite(rmax)) {
+    s.tracked = false;
+    return 0;
+  }
+  // The grid keeps its cell size; boxes that outgrew it join the big ones
+  // (beyond their cap: start afresh).
+  if (ntouched) {
+    s.nbig = 0;
+    for (uint32_t t = 0; t < nt; ++t) {
+      if (s.touched[t]) s.is_big[t] = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+      if (s.is_big[t]) {
+        if (s.nbig == s.big_cap) return full_check(m, x, s, mark, true);
+        s.big[s.nbig++] = t;
+      }
+    }
+    s.grid.build(s.lo, s.hi, nt, [&](uint32_t t) { return !s.is_big[t]; });
+  }
+  // Pairs between untouched triangles stand; the others are found afresh.
+  Pairs P{m, x, s, mark, true};
+  uint32_t kept = 0;
+  for (uint32_t i = 0; i < s.npairs; ++i) {
+    const uint32_t t = s.pairs[2 * size_t(i)], u = s.pairs[2 * size_t(i) + 1];
+    if (s.touched[t] || s.touched[u]) continue;
+    s.pairs[2 * size_t(kept)] = t;
+    s.pairs[2 * size_t(kept) + 1] = u;
+    ++kept;
+    const uint32_t* a = s.tris + 3 * size_t(t);
+    const uint32_t* b = s.tris + 3 * size_t(u);
+    for (int k = 0; k < 3; ++k) mark[a[k]] = mark[b[k]] = 1;
+  }
+  s.npairs = kept;
+  P.count = kept;
+  // Each new pair once: touched grid boxes against the grid (two touched:
+  // from the lower index) and against every big box; touched big boxes
+  // against untouched grid boxes and against the big boxes (two touched:
+  // from the lower index).
+  for (uint32_t t = 0; t < nt; ++t) {
+    if (!s.touched[t]) continue;
+    if (!s.is_big[t]) {
+      P.grid_vs_grid(t, [&](uint32_t u) { return s.touched[u] && u < t; });
+      for (uint32_t j = 0; j < s.nbig; ++j)
+        if (P.overlap(t, s.big[j])) P.ordered(t, s.big[j]);
+    } else {
+      P.big_vs_grid(t, [&](uint32_t u) { return s.touched[u] != 0; });
+      for (uint32_t j = 0; j < s.nbig; ++j) {
+        const uint32_t u = s.big[j];
+        if (u == t || (s.touched[u] && u < t)) continue;
+        if (P.overlap(t, u)) P.ordered(t, u);
+      }
+    }
+  }
+  return P.count;
 }
 
 }  // namespace ffseg

@@ -1,8 +1,9 @@
 // Self-intersection check of the cube-sphere mesh at given positions, in
 // workspace memory: every pair of triangles that share no edge is tested
 // (pairs sharing one vertex: beyond that vertex) by segment-triangle crossings
-// (an edge of one triangle passing through the other), candidates from a
-// hashed grid over the triangles' centroids. Coplanar touching is not
+// (an edge of one triangle passing through the other), candidates: pairs
+// whose bounding boxes overlap (a hashed grid over the boxes, the few widest
+// boxes querying it) and whose bounding spheres meet. Coplanar touching is not
 // reported. The engine's guard refuses any step that would create one.
 #pragma once
 #include <cstdint>
@@ -17,7 +18,23 @@ struct TriangleScratch {
   uint32_t* tris = nullptr;   // 3 per triangle
   double* centroid = nullptr; // 3 per triangle
   double* radius = nullptr;   // per triangle: farthest vertex from the centroid
-  SpatialGrid grid;
+  double* lo = nullptr;       // 3 per triangle: bounding box (widened a hair)
+  double* hi = nullptr;
+  uint8_t* is_big = nullptr;  // per triangle: too wide for the grid
+  uint32_t* big = nullptr;    // their indices (at most big_cap)
+  uint32_t nbig = 0, big_cap = 0;
+  BoxGrid grid;
+  double eps = 0;             // the boxes' widening
+  // mark_intersections_tracked: the crossing pairs (t < u) at the positions
+  // of the last call, valid while tracked; touched: per triangle, scratch.
+  uint32_t* pairs = nullptr;
+  uint32_t npairs = 0, pair_cap = 0;
+  bool tracked = false;
+  uint8_t* touched = nullptr;
+  // For the step guard: one byte per face, two per vertex.
+  uint8_t* face_flags = nullptr;
+  uint8_t* vertex_flags = nullptr;
+  uint8_t* vertex_marks = nullptr;
   void carve(Arena& a, const CubeSphere& m);
 };
 
@@ -25,5 +42,13 @@ struct TriangleScratch {
 // intersecting pair at positions x (3 per vertex) and returns the number of
 // pairs (stops at the first when mark is nullptr).
 uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark);
+
+// The same with mark required and the pairs kept in s: when moved is given
+// and the previous call was tracked too, positions x may differ from that
+// call's only at the vertices with moved[v] != 0, and only the triangles
+// around them are tested again. Marks and count equal mark_intersections'.
+// Any mark_intersections() call in between ends the tracking.
+uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
+                                    const uint8_t* moved);
 
 }  // namespace ffseg

@@ -1,6 +1,8 @@
 // A hashed uniform grid over points, held in workspace memory: counting sort
-// of point ids by cell hash, rebuilt in O(points); ball queries visit the
-// cells overlapping the ball's bounding box.
+// of point ids by cell hash, rebuilt in O(points). Queries visit the cells
+// overlapping a box (or a ball's bounding box) and report each point once:
+// every point keeps its packed cell coordinates, so a bucket shared by two
+// cells of one query (a hash collision) is not read twice.
 #pragma once
 #include <cstdint>
 
@@ -8,47 +10,205 @@
 
 namespace ffseg {
 
+// floor(v) as an integer, inline (no libm call) for |v| < 2^63.
+inline int64_t floor_i64(double v) {
+  const int64_t i = int64_t(v);
+  return i - (v < double(i));
+}
+
 class SpatialGrid {
  public:
   void carve(Arena& a, uint32_t max_points);
   // pts: 3 * count coordinates; h: cell size (> 0).
-  void build(const double* pts, uint32_t count, double h);
+  void build(const double* pts, uint32_t count, double h) {
+    build_if(pts, count, h, [](uint32_t) { return true; });
+  }
+  // The same over the points i < count with keep(i) only.
+  template <class Keep>
+  void build_if(const double* pts, uint32_t count, double h, Keep&& keep);
 
-  // Calls f(id) for every point within r of c (ids are indices into pts).
+  // Calls f(id) once for every point within r of c (ids are indices into pts).
   template <class F>
   void for_each_in_ball(const double c[3], double r, F&& f) const {
-    int64_t lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = cell(c[a] - r);
-      hi[a] = cell(c[a] + r);
-    }
     const double r2 = r * r;
-    for (int64_t z = lo[2]; z <= hi[2]; ++z)
-      for (int64_t y = lo[1]; y <= hi[1]; ++y)
-        for (int64_t x = lo[0]; x <= hi[0]; ++x) {
-          const uint32_t b = hash(x, y, z);
-          for (uint32_t k = start_[b]; k < start_[b + 1]; ++k) {
-            const uint32_t id = ids_[k];
-            const double* p = pts_ + 3 * size_t(id);
-            const double dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2];
-            if (dx * dx + dy * dy + dz * dz <= r2) f(id);
-          }
+    const double lo[3] = {c[0] - r, c[1] - r, c[2] - r}, hi[3] = {c[0] + r, c[1] + r, c[2] + r};
+    for_each_in_cells(lo, hi, [&](uint32_t id) {
+      const double* p = pts_ + 3 * size_t(id);
+      const double dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2];
+      if (dx * dx + dy * dy + dz * dz <= r2) f(id);
+    });
+  }
+
+  // Calls f(id) once for every point whose cell overlaps the box [lo, hi]
+  // (a superset of the points inside it; the caller filters).
+  template <class F>
+  void for_each_in_cells(const double lo[3], const double hi[3], F&& f) const {
+    int64_t a[3], b[3];
+    for (int k = 0; k < 3; ++k) {
+      a[k] = cell(lo[k]);
+      b[k] = cell(hi[k]);
+    }
+    for (int64_t z = a[2]; z <= b[2]; ++z)
+      for (int64_t y = a[1]; y <= b[1]; ++y)
+        for (int64_t x = a[0]; x <= b[0]; ++x) {
+          const uint32_t h = hash(x, y, z);
+          const uint64_t pc = pack(x, y, z);
+          for (uint32_t k = start_[h]; k < start_[h + 1]; ++k)
+            if (cellkey_[k] == pc) f(ids_[k]);
         }
   }
 
  private:
-  int64_t cell(double v) const { return int64_t(__builtin_floor(v * inv_h_)); }
+  int64_t cell(double v) const { return floor_i64(v * inv_h_); }
   uint32_t hash(int64_t x, int64_t y, int64_t z) const {
     const uint64_t h = uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;
     return uint32_t(h & mask_);
   }
+  // 21 bits per axis: two cells of one query never differ by 2^21 on an axis.
+  static uint64_t pack(int64_t x, int64_t y, int64_t z) {
+    return (uint64_t(x) & 0x1FFFFF) | (uint64_t(y) & 0x1FFFFF) << 21 | (uint64_t(z) & 0x1FFFFF) << 42;
+  }
 
   uint32_t max_points_ = 0, table_ = 0, mask_ = 0;
-  uint32_t* start_ = nullptr;  // table_ + 1
-  uint32_t* ids_ = nullptr;    // max_points_
-  uint32_t* key_ = nullptr;    // max_points_
+  uint32_t* start_ = nullptr;    // table_ + 1
+  uint32_t* ids_ = nullptr;      // max_points_, sorted by bucket
+  uint64_t* cellkey_ = nullptr;  // max_points_: packed cell of ids_[k]
+  uint32_t* key_ = nullptr;      // max_points_: bucket of point i (build only)
   const double* pts_ = nullptr;
   double inv_h_ = 1;
 };
+
+template <class Keep>
+void SpatialGrid::build_if(const double* pts, uint32_t count, double h, Keep&& keep) {
+  pts_ = pts;
+  inv_h_ = 1.0 / h;
+  for (uint32_t b = 0; b <= table_; ++b) start_[b] = 0;
+  for (uint32_t i = 0; i < count; ++i) {
+    if (!keep(i)) {
+      key_[i] = table_;  // not inserted
+      continue;
+    }
+    const double* p = pts + 3 * size_t(i);
+    key_[i] = hash(cell(p[0]), cell(p[1]), cell(p[2]));
+    ++start_[key_[i] + 1];
+  }
+  for (uint32_t b = 0; b < table_; ++b) start_[b + 1] += start_[b];
+  // Scatter using start_ as a cursor, then shift back.
+  for (uint32_t i = 0; i < count; ++i) {
+    if (key_[i] == table_) continue;
+    const double* p = pts + 3 * size_t(i);
+    const uint32_t k = start_[key_[i]]++;
+    ids_[k] = i;
+    cellkey_[k] = pack(cell(p[0]), cell(p[1]), cell(p[2]));
+  }
+  for (uint32_t b = table_; b > 0; --b) start_[b] = start_[b - 1];
+  start_[0] = 0;
+}
+
+// A hashed uniform grid over boxes, held in workspace memory: every box that
+// spans at most two cells per axis ("fits") is entered in each cell it
+// overlaps (at most 8 entries), a counting sort by cell hash. A query visits
+// the cells a box overlaps; an entry is reported with the cell it was met in,
+// so a caller can count a pair once (in the cell holding the low corner of
+// the two boxes' intersection).
+class BoxGrid {
+ public:
+  static constexpr uint32_t kMaxEntries = 8;  // per box
+  void carve(Arena& a, uint32_t max_boxes);
+  // Sets the cell size h (> 0) for fits(), cells() and the next build().
+  void set_cell_size(double h) {
+    h_ = h;
+    inv_h_ = 1.0 / h;
+  }
+  // lo, hi: 3 per box. Enters the boxes i < count with keep(i) && fits(i), at
+  // the cell size set.
+  template <class Keep>
+  void build(const double* lo, const double* hi, uint32_t count, Keep&& keep);
+
+  double cell_size() const { return h_; }
+  int64_t cell(double v) const { return floor_i64(v * inv_h_); }
+  bool fits(const double* lo, const double* hi) const {
+    for (int a = 0; a < 3; ++a)
+      if (!(cell(hi[a]) - cell(lo[a]) <= 1)) return false;
+    return true;
+  }
+  // Number of cells the box [lo, hi] overlaps (as a double: may be huge).
+  double cells(const double* lo, const double* hi) const {
+    double c = 1;
+    for (int a = 0; a < 3; ++a) c *= double(cell(hi[a]) - cell(lo[a]) + 1);
+    return c;
+  }
+
+  // Calls f(id, cell) for every entry of the cells the box [lo, hi] overlaps
+  // (cell: int64_t[3]); an entry of a box is met once per cell it shares.
+  template <class F>
+  void for_each_entry(const double* lo, const double* hi, F&& f) const {
+    int64_t a[3], b[3];
+    for (int k = 0; k < 3; ++k) {
+      a[k] = cell(lo[k]);
+      b[k] = cell(hi[k]);
+    }
+    int64_t c[3];
+    for (c[2] = a[2]; c[2] <= b[2]; ++c[2])
+      for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
+        for (c[0] = a[0]; c[0] <= b[0]; ++c[0]) {
+          const uint32_t hb = hash(c[0], c[1], c[2]);
+          const uint32_t pc = pack(c[0], c[1], c[2]);
+          for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
+            if (key_[k] == pc) f(ids_[k], static_cast<const int64_t*>(c));
+        }
+  }
+
+ private:
+  uint32_t hash(int64_t x, int64_t y, int64_t z) const {
+    const uint64_t h = uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;
+    return uint32_t(h & mask_);
+  }
+  // 10 bits per axis: the cells of one fitting box never alias; a wider
+  // query may meet an aliased entry, which the caller's cell test rejects.
+  static uint32_t pack(int64_t x, int64_t y, int64_t z) {
+    return uint32_t((uint64_t(x) & 0x3FF) | (uint64_t(y) & 0x3FF) << 10 | (uint64_t(z) & 0x3FF) << 20);
+  }
+  template <class F>
+  void for_each_cell_of(const double* lo, const double* hi, F&& f) const {
+    int64_t a[3], b[3];
+    for (int k = 0; k < 3; ++k) {
+      a[k] = cell(lo[k]);
+      b[k] = cell(hi[k]);
+    }
+    for (int64_t z = a[2]; z <= b[2]; ++z)
+      for (int64_t y = a[1]; y <= b[1]; ++y)
+        for (int64_t x = a[0]; x <= b[0]; ++x) f(x, y, z);
+  }
+
+  uint32_t max_entries_ = 0, table_ = 0, mask_ = 0;
+  uint32_t* start_ = nullptr;  // table_ + 1
+  uint32_t* ids_ = nullptr;    // max_entries_, sorted by bucket
+  uint32_t* key_ = nullptr;    // max_entries_: packed cell of ids_[k]
+  double h_ = 1, inv_h_ = 1;
+};
+
+template <class Keep>
+void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& keep) {
+  for (uint32_t b = 0; b <= table_; ++b) start_[b] = 0;
+  auto entered = [&](uint32_t i) { return keep(i) && fits(lo + 3 * size_t(i), hi + 3 * size_t(i)); };
+  for (uint32_t i = 0; i < count; ++i) {
+    if (!entered(i)) continue;
+    for_each_cell_of(lo + 3 * size_t(i), hi + 3 * size_t(i),
+                     [&](int64_t x, int64_t y, int64_t z) { ++start_[hash(x, y, z) + 1]; });
+  }
+  for (uint32_t b = 0; b < table_; ++b) start_[b + 1] += start_[b];
+  // Scatter using start_ as a cursor, then shift back.
+  for (uint32_t i = 0; i < count; ++i) {
+    if (!entered(i)) continue;
+    for_each_cell_of(lo + 3 * size_t(i), hi + 3 * size_t(i), [&](int64_t x, int64_t y, int64_t z) {
+      const uint32_t k = start_[hash(x, y, z)]++;
+      ids_[k] = i;
+      key_[k] = pack(x, y, z);
+    });
+  }
+  for (uint32_t b = table_; b > 0; --b) start_[b] = start_[b - 1];
+  start_[0] = 0;
+}
 
 }  // namespace ffseg

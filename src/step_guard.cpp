@@ -1,5 +1,7 @@
 #include "step_guard.h"
 
+#include <cstring>
+
 #include "rasterize.h"
 
 namespace ffseg {
@@ -45,61 +47,102 @@ double cos_of(const double a[3], const double b[3]) {
 
 }  // namespace
 
-uint32_t mark_violations(const CubeSphere& m, const double* x_old, const double* xs, uint8_t* mark) {
+namespace {
+
+// Offence bits of face f (the tests the face owns): kTurn << t for its
+// triangle t (split at x_old) turned by 90 degrees or more; kQuadFold for a
+// new fold between its two triangles; kEdgeFold << e for a new fold across
+// edge e towards a face of higher index.
+constexpr uint8_t kTurn = 1, kQuadFold = 4, kEdgeFold = 8;
+constexpr uint8_t kDirty = 0x80;  // guard bookkeeping, never an offence
+
+uint8_t face_offences(const CubeSphere& m, uint32_t f, const double* x_old, const double* xs) {
+  uint8_t bits = 0;
+  uint32_t tri[6] = {0, 0, 0, 0, 0, 0};
+  const int nt = face_triangles(m, f, tri, x_old);
+  for (int t = 0; t < nt; ++t) {
+    const uint32_t* id = tri + 3 * t;
+    double n0[3], n1[3];
+    tri_normal(x_old + 3 * size_t(id[0]), x_old + 3 * size_t(id[1]), x_old + 3 * size_t(id[2]), n0);
+    tri_normal(xs + 3 * size_t(id[0]), xs + 3 * size_t(id[1]), xs + 3 * size_t(id[2]), n1);
+    if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0)) bits |= uint8_t(kTurn << t);
+  }
+  const uint32_t* q = m.faces + 4 * size_t(f);
+  const int k = q[3] == kNone ? 3 : 4;
+  // Folds: inside the quad (between its two triangles) and across each edge.
+  if (nt == 2) {
+    uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
+    face_triangles(m, f, tn, xs);
+    double a[3], b[3];
+    tri_normal(xs + 3 * size_t(tn[0]), xs + 3 * size_t(tn[1]), xs + 3 * size_t(tn[2]), a);
+    tri_normal(xs + 3 * size_t(tn[3]), xs + 3 * size_t(tn[4]), xs + 3 * size_t(tn[5]), b);
+    if (cos_of(a, b) < kFoldCos) {
+      double c[3], d[3];
+      tri_normal(x_old + 3 * size_t(tri[0]), x_old + 3 * size_t(tri[1]), x_old + 3 * size_t(tri[2]), c);
+      tri_normal(x_old + 3 * size_t(tri[3]), x_old + 3 * size_t(tri[4]), x_old + 3 * size_t(tri[5]), d);
+      if (cos_of(c, d) >= kFoldCos) bits |= kQuadFold;
+    }
+  }
+  for (int e = 0; e < k; ++e) {
+    const uint32_t g = m.fadj[4 * size_t(f) + e];
+    if (g == kNone || g < f) continue;  // each shared edge once
+    const uint32_t a = q[e], b = q[(e + 1) % k];
+    double nf[3], ng[3];
+    edge_triangle_normal(m, f, a, b, xs, nf);
+    edge_triangle_normal(m, g, b, a, xs, ng);
+    if (cos_of(nf, ng) >= kFoldCos) continue;
+    edge_triangle_normal(m, f, a, b, x_old, nf);
+    edge_triangle_normal(m, g, b, a, x_old, ng);
+    if (cos_of(nf, ng) >= kFoldCos) bits |= uint8_t(kEdgeFold << e);
+  }
+  return bits;
+}
+
+// Marks the vertices of face f's offences bits (mark may be nullptr); returns
+// their count (a fold across an edge counts for both faces), or with first,
+// the count up to and including the first offence.
+uint32_t mark_offences(const CubeSphere& m, uint32_t f, uint8_t bits, const double* x_old, uint8_t* mark,
+                       bool first) {
   uint32_t count = 0;
-  auto hit = [&](const uint32_t* ids, int k) {
+  const uint32_t* q = m.faces + 4 * size_t(f);
+  const int k = q[3] == kNone ? 3 : 4;
+  auto hit = [&](const uint32_t* ids, int c) {
     ++count;
     if (mark)
-      for (int i = 0; i < k; ++i) mark[ids[i]] = 1;
+      for (int i = 0; i < c; ++i) mark[ids[i]] = 1;
   };
-  for (uint32_t f = 0; f < m.nfaces; ++f) {
+  if (bits & (kTurn | kTurn << 1)) {
     uint32_t tri[6] = {0, 0, 0, 0, 0, 0};
-    const int nt = face_triangles(m, f, tri, x_old);
-    for (int t = 0; t < nt; ++t) {
-      const uint32_t* id = tri + 3 * t;
-      double n0[3], n1[3];
-      tri_normal(x_old + 3 * size_t(id[0]), x_old + 3 * size_t(id[1]), x_old + 3 * size_t(id[2]), n0);
-      tri_normal(xs + 3 * size_t(id[0]), xs + 3 * size_t(id[1]), xs + 3 * size_t(id[2]), n1);
-      if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0)) {
-        hit(id, 3);
-        if (!mark) return count;
+    face_triangles(m, f, tri, x_old);
+    for (int t = 0; t < 2; ++t)
+      if (bits & (kTurn << t)) {
+        hit(tri + 3 * t, 3);
+        if (first) return count;
       }
-    }
-    const uint32_t* q = m.faces + 4 * size_t(f);
-    const int k = q[3] == kNone ? 3 : 4;
-    // Folds: inside the quad (between its two triangles) and across each edge.
-    if (nt == 2) {
-      uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
-      face_triangles(m, f, tn, xs);
-      double a[3], b[3];
-      tri_normal(xs + 3 * size_t(tn[0]), xs + 3 * size_t(tn[1]), xs + 3 * size_t(tn[2]), a);
-      tri_normal(xs + 3 * size_t(tn[3]), xs + 3 * size_t(tn[4]), xs + 3 * size_t(tn[5]), b);
-      if (cos_of(a, b) < kFoldCos) {
-        double c[3], d[3];
-        tri_normal(x_old + 3 * size_t(tri[0]), x_old + 3 * size_t(tri[1]), x_old + 3 * size_t(tri[2]), c);
-        tri_normal(x_old + 3 * size_t(tri[3]), x_old + 3 * size_t(tri[4]), x_old + 3 * size_t(tri[5]), d);
-        if (cos_of(c, d) >= kFoldCos) {
-          hit(q, 4);
-          if (!mark) return count;
-        }
-      }
-    }
-    for (int e = 0; e < k; ++e) {
+  }
+  if (bits & kQuadFold) {
+    hit(q, 4);
+    if (first) return count;
+  }
+  for (int e = 0; e < k; ++e)
+    if (bits & (kEdgeFold << e)) {
       const uint32_t g = m.fadj[4 * size_t(f) + e];
-      if (g == kNone || g < f) continue;  // each shared edge once
-      const uint32_t a = q[e], b = q[(e + 1) % k];
-      double nf[3], ng[3];
-      edge_triangle_normal(m, f, a, b, xs, nf);
-      edge_triangle_normal(m, g, b, a, xs, ng);
-      if (cos_of(nf, ng) >= kFoldCos) continue;
-      edge_triangle_normal(m, f, a, b, x_old, nf);
-      edge_triangle_normal(m, g, b, a, x_old, ng);
-      if (cos_of(nf, ng) >= kFoldCos) {
-        hit(q, k);
-        hit(m.faces + 4 * size_t(g), m.faces[4 * size_t(g) + 3] == kNone ? 3 : 4);
-        if (!mark) return count;
-      }
+      hit(q, k);
+      hit(m.faces + 4 * size_t(g), m.faces[4 * size_t(g) + 3] == kNone ? 3 : 4);
+      if (first) return count;
     }
+  return count;
+}
+
+}  // namespace
+
+uint32_t mark_violations(const CubeSphere& m, const double* x_old, const double* xs, uint8_t* mark) {
+  uint32_t count = 0;
+  for (uint32_t f = 0; f < m.nfaces; ++f) {
+    const uint8_t bits = face_offences(m, f, x_old, xs);
+    if (!bits) continue;
+    count += mark_offences(m, f, bits, x_old, mark, mark == nullptr);
+    if (!mark) return count;
   }
   return count;
 }
@@ -126,6 +169,54 @@ void blend(size_t nv, const double* x_old, const double* x_new, double s, double
     }
 }
 
+bool same_bits(double a, double b) {
+  uint64_t x, y;
+  std::memcpy(&x, &a, sizeof x);
+  std::memcpy(&y, &b, sizeof y);
+  return x == y;
+}
+
+// Marks (ts.vertex_marks) and counts every offence and intersection at xs,
+// the guard's local rounds' test. moved == nullptr: from scratch; otherwise xs
+// differs from the previous call's positions only at the vertices with
+// moved[v] != 0, and only the faces and triangles around them are tested
+// again (ts.face_flags keeps each face's offences).
+uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, const uint8_t* moved,
+                  TriangleScratch& ts) {
+  uint8_t* flags = ts.face_flags;
+  if (!moved) {
+    for (uint32_t f = 0; f < m.nfaces; ++f) flags[f] = face_offences(m, f, x_old, xs);
+  } else {
+    // A face's tests read its own vertices and those of its edge neighbours.
+    for (uint32_t f = 0; f < m.nfaces; ++f) {
+      const uint32_t* q = m.faces + 4 * size_t(f);
+      const int k = q[3] == kNone ? 3 : 4;
+      for (int i = 0; i < k; ++i)
+        if (moved[q[i]]) {
+          flags[f] |= kDirty;
+          break;
+        }
+    }
+    for (uint32_t f = 0; f < m.nfaces; ++f) {
+      const uint32_t* q = m.faces + 4 * size_t(f);
+      const int k = q[3] == kNone ? 3 : 4;
+      bool dirty = flags[f] & kDirty;
+      for (int e = 0; e < k && !dirty; ++e) {
+        const uint32_t g = m.fadj[4 * size_t(f) + e];
+        dirty = g != kNone && (flags[g] & kDirty);
+      }
+      if (dirty) flags[f] = uint8_t((flags[f] & kDirty) | face_offences(m, f, x_old, xs));
+    }
+    for (uint32_t f = 0; f < m.nfaces; ++f) flags[f] &= uint8_t(~kDirty);
+  }
+  uint8_t* mark = ts.vertex_marks;
+  for (size_t v = 0; v < m.nv; ++v) mark[v] = 0;
+  uint32_t count = 0;
+  for (uint32_t f = 0; f < m.nfaces; ++f)
+    if (flags[f]) count += mark_offences(m, f, flags[f], x_old, mark, false);
+  return count + mark_intersections_tracked(m, xs, ts, mark, moved);
+}
+
 }  // namespace
 
 double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
@@ -137,10 +228,12 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   double s = 1.0;
   blend(nv, x_old, x_new, s, xs);
   int halvings = 0;
-  while (violates(m, x_old, xs, ts) && halvings < kGlobalHalvings) {
+  bool bad = violates(m, x_old, xs, ts);
+  while (bad && halvings < kGlobalHalvings) {
     ++halvings;
     s *= 0.5;
     blend(nv, x_old, x_new, s, xs);
+    bad = violates(m, x_old, xs, ts);
   }
   for (size_t v = 0; v < nv; ++v) share[v] = s;
   // Still offending: one region holds the step back. Every share starts again
@@ -155,15 +248,17 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
         xs[3 * v + c] = o + g * share[v] * (x_new[c * nv + v] - o);
       }
   };
-  bool clean = halvings < kGlobalHalvings || !violates(m, x_old, xs, ts);
+  bool clean = !bad;
   if (!clean) {
     for (size_t v = 0; v < nv; ++v) share[v] = 1.0;
     blend_shares(1.0);
   }
+  // Each round's test of its new positions also gives the next round's marks
+  // (ts.vertex_marks); the first round marks from scratch.
+  uint8_t* moved = ts.vertex_flags;
   for (int round = 0; round < kLocalRounds && !clean; ++round) {
-    for (size_t v = 0; v < nv; ++v) mark[v] = 0;
-    mark_violations(m, x_old, xs, mark);
-    mark_intersections(m, xs, ts, mark);
+    if (round == 0) mark_all(m, x_old, xs, nullptr, ts);
+    for (size_t v = 0; v < nv; ++v) mark[v] = ts.vertex_marks[v];
     for (size_t v = 0; v < nv; ++v) {
       grow[v] = mark[v];
       if (!mark[v]) continue;
@@ -176,8 +271,18 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
       for (size_t v = 0; v < nv; ++v) relax(m, share, v);
       for (size_t v = nv; v-- > 0;) relax(m, share, v);
     }
-    blend_shares(1.0);
-    clean = !violates(m, x_old, xs, ts);
+    // blend_shares(1.0), noting which vertices moved.
+    for (size_t v = 0; v < nv; ++v) {
+      bool changed = false;
+      for (int c = 0; c < 3; ++c) {
+        const double o = x_old[3 * v + c];
+        const double p = o + 1.0 * share[v] * (x_new[c * nv + v] - o);
+        changed |= !same_bits(p, xs[3 * v + c]);
+        xs[3 * v + c] = p;
+      }
+      moved[v] = changed;
+    }
+    clean = mark_all(m, x_old, xs, moved, ts) == 0;
   }
   double g = 1.0;
   for (int h = 0; !clean; ++h) {

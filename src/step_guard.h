@@ -13,10 +13,10 @@ namespace ffseg {
 
 // x_old: current positions (3 per vertex); x_new: proposed positions as three
 // columns of nv (x_new[c * nv + v]), scaled back in place towards x_old;
-// xs: 3 * nv scratch. Returns the fraction of the update kept (1 when nothing
-// turned or folded).
-// share (nv doubles), mark and grow (nv bytes) are scratch. Returns the mean
-// share of the update kept (1 when nothing turned or folded).
+// xs: 3 * nv scratch; share (nv doubles), mark and grow (nv bytes) are scratch; ts also carries
+// the local rounds' incremental state (each round re-tests only the faces and
+// triangles around the vertices whose share changed). Returns the mean share
+// of the update kept (1 when nothing turned, folded or crossed).
 double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
                   uint8_t* mark, uint8_t* grow, TriangleScratch& ts);
 
