@@ -51,7 +51,7 @@ struct Params {
   double search_range_mm = 0.0;  // 0: kBinaryRange or kIntensityRange
   double search_step_mm = 0.0;
   double convergence_mm = 0.05;
-  uint32_t diffusion_iterations = 20;
+  uint32_t diffusion_iterations = 0;  // 0: diffusion_rounds(n)
   uint32_t consecutive_background = 3;
   uint32_t smoothing_iterations = 5;
   uint32_t bin_min_count = 0;
@@ -84,6 +84,7 @@ struct Object {
   SmoothedRoi roi;
   IntensityModel model;
   double kappa = 0;  // the conductance used, kept when the crop is recomputed
+  bool polish = false;  // came to rest once: diffusion reduced (engine.cpp)
 };
 
 enum Stage : int {

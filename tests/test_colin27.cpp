@@ -192,6 +192,9 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
   // The step guard's local fallback restarting every share at 1 (needed by the
   // cup) left the right-side mean Dice at 0.507 and moved the held-out side:
   // caudate L 0.47 -> 0.63, putamen L 0.43 -> 0.35, hippocampus L 0.55 -> 0.50.
+  // Automatic diffusion rounds (20 (n/33)^2: 3 at n = 12, from the cup) moved
+  // the right-side mean to 0.511; held out: putamen L 0.40, thalamus L 0.58,
+  // caudate L 0.62, hippocampus L 0.55.
   ffseg_tools::NiftiImage t1, aal;
   std::string err;
   REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
@@ -201,8 +204,8 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
     const char* name;
     double dice_floor, assd_ceiling;
   };
-  const Case cases[] = {{73, "putamen L", 0.33, 5.7},    {74, "putamen R", 0.46, 4.4},
-                        {77, "thalamus L", 0.58, 3.4},   {78, "thalamus R", 0.45, 5.1},
+  const Case cases[] = {{73, "putamen L", 0.37, 5.7},    {74, "putamen R", 0.46, 4.4},
+                        {77, "thalamus L", 0.55, 3.4},   {78, "thalamus R", 0.45, 5.1},
                         {71, "caudate L", 0.58, 5.2},    {72, "caudate R", 0.52, 5.7},
                         {37, "hippocampus L", 0.47, 5.5}, {38, "hippocampus R", 0.43, 6.3}};
   std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
