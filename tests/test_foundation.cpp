@@ -23,16 +23,10 @@ using ffseg_test::make_volume;
 namespace {
 
 struct MeshBox {
-  std::vector<unsigned char> mem;
   ffseg::CubeSphere m;
-  explicit MeshBox(uint32_t n) {
-    ffseg::Arena probe;
-    m.carve(probe, n);
-    mem.resize(probe.used() + 64);
-    void* base = reinterpret_cast<void*>((reinterpret_cast<uintptr_t>(mem.data()) + 63) & ~uintptr_t(63));
-    ffseg::Arena a(base, probe.used());
-    m.carve(a, n);
-    REQUIRE(a.ok());
+  ffseg_test::ArenaBox box;
+  explicit MeshBox(uint32_t n) : box([&](ffseg::Arena& a) { m.carve(a, n); }) {
+    REQUIRE(box.ok());
     m.build();
   }
 };

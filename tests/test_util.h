@@ -6,10 +6,33 @@
 #include <cstring>
 #include <vector>
 
+#include "arena.h"
 #include "cubesphere.h"
 #include "ffseg.h"
 
 namespace ffseg_test {
+
+// Owned, 64-byte aligned memory for core structures carved from an Arena:
+// carve(arena) runs once measuring and once on the memory (so every pointer
+// it stores points into mem).
+class ArenaBox {
+ public:
+  template <class F>
+  explicit ArenaBox(F&& carve) {
+    ffseg::Arena probe;
+    carve(probe);
+    mem_.resize(probe.used() + 64);
+    void* base = reinterpret_cast<void*>((reinterpret_cast<uintptr_t>(mem_.data()) + 63) & ~uintptr_t(63));
+    ffseg::Arena a(base, probe.used());
+    carve(a);
+    ok_ = a.ok();
+  }
+  bool ok() const { return ok_; }
+
+ private:
+  std::vector<unsigned char> mem_;
+  bool ok_ = false;
+};
 
 struct EngineBox {
   void* ws = nullptr;

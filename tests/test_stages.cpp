@@ -1,0 +1,165 @@
+// Unit tests of single deformation stages on the bare cube-sphere: the
+// harmonic fill of target-less gaps, the engine's own self-intersection test
+// and the step guard that uses it.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "cubesphere.h"
+#include "diffusion.h"
+#include "mesh_intersection.h"
+#include "step_guard.h"
+#include "test_util.h"
+
+using ffseg_test::ArenaBox;
+
+namespace {
+
+struct StageBox {
+  ffseg::CubeSphere m;
+  ffseg::TriangleScratch tri;
+  ArenaBox box;
+  explicit StageBox(uint32_t n)
+      : box([&](ffseg::Arena& a) {
+          m.carve(a, n);
+          tri.carve(a, m);
+        }) {
+    REQUIRE(box.ok());
+    m.build();
+  }
+  // Positions of the sphere of radius r around the origin.
+  std::vector<double> sphere(double r) const {
+    std::vector<double> x(size_t(3) * m.nv);
+    for (size_t q = 0; q < x.size(); ++q) x[q] = r * m.unit[q];
+    return x;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("harmonic fill: a gap inside a constant displacement gets that constant") {
+  StageBox b(9);
+  const uint32_t nv = b.m.nv;
+  std::vector<double> d(size_t(3) * nv, 0.0);
+  std::vector<uint8_t> has(nv);
+  std::vector<uint32_t> queue(nv);
+  uint32_t gap = 0;
+  for (uint32_t v = 0; v < nv; ++v) {
+    has[v] = b.m.unit[3 * v + 2] < 0.4;  // the cap above z = 0.4 has no target
+    gap += !has[v];
+    if (has[v]) {
+      d[3 * v] = 1.5;
+      d[3 * v + 1] = -2;
+      d[3 * v + 2] = 0.25;
+    }
+  }
+  REQUIRE(gap > 20);
+  const uint32_t filled = ffseg::harmonic_fill(b.m, d.data(), has.data(), queue.data(), 200, 1e-9);
+  CHECK(filled == gap);
+  for (uint32_t v = 0; v < nv; ++v) {
+    CHECK(has[v] == 1);
+    CHECK(d[3 * v] == doctest::Approx(1.5).epsilon(1e-6));
+    CHECK(d[3 * v + 1] == doctest::Approx(-2).epsilon(1e-6));
+    CHECK(d[3 * v + 2] == doctest::Approx(0.25).epsilon(1e-6));
+  }
+}
+
+TEST_CASE("harmonic fill: a rim closing in fills the cap with a contraction that never crosses the axis") {
+  // The cup's lid: the rim moves towards the z axis and down, the cap above
+  // it has no target. Copying the rim's sideways motion inwards (plain
+  // diffusion) moves the vertices near the pole across the axis; the
+  // harmonic extension shrinks the cap instead.
+  StageBox b(21);
+  const uint32_t nv = b.m.nv;
+  const std::vector<double> x = b.sphere(30);
+  std::vector<double> d(size_t(3) * nv, 0.0);
+  std::vector<uint8_t> has(nv);
+  std::vector<uint32_t> queue(nv);
+  const double pull = 0.6;  // the rim moves 60 % of the way to the axis
+  for (uint32_t v = 0; v < nv; ++v) {
+    has[v] = b.m.unit[3 * v + 2] < 0.6;
+    if (has[v]) {
+      d[3 * v] = -pull * x[3 * v];
+      d[3 * v + 1] = -pull * x[3 * v + 1];
+      d[3 * v + 2] = -5;
+    }
+  }
+  ffseg::harmonic_fill(b.m, d.data(), has.data(), queue.data(), 400, 1e-9);
+  uint32_t pole = 0;
+  for (uint32_t v = 0; v < nv; ++v)
+    if (b.m.unit[3 * v + 2] > b.m.unit[3 * pole + 2]) pole = v;
+  const double rho_pole = std::hypot(x[3 * pole], x[3 * pole + 1]);
+  const double lat_pole = std::hypot(d[3 * pole], d[3 * pole + 1]);
+  CHECK(lat_pole <= pull * rho_pole + 1e-9);  // the pole moves less than the rim's rate
+  for (uint32_t v = 0; v < nv; ++v) {
+    const double px = x[3 * v], py = x[3 * v + 1];
+    if (b.m.unit[3 * v + 2] < 0.6 || std::hypot(px, py) < 1e-9) continue;  // the rim, or on the axis
+    CAPTURE(v);
+    const double qx = px + d[3 * v], qy = py + d[3 * v + 1];
+    // Inwards, but not across the axis: the new lateral position keeps its
+    // direction and is no farther out.
+    CHECK(qx * px + qy * py > 0);
+    CHECK(std::hypot(qx, qy) <= std::hypot(px, py) + 1e-9);
+    CHECK(d[3 * v + 2] == doctest::Approx(-5).epsilon(1e-6));
+  }
+}
+
+TEST_CASE("self-intersection test: a sphere is clean, a vertex pushed through the far side is caught") {
+  StageBox b(12);
+  std::vector<double> x = b.sphere(10);
+  std::vector<uint8_t> mark(b.m.nv, 0);
+  CHECK(ffseg::mark_intersections(b.m, x.data(), b.tri, mark.data()) == 0);
+  // Push one vertex straight through the centre and out of the far side.
+  const uint32_t v = b.m.nv / 3;
+  for (int a = 0; a < 3; ++a) x[3 * v + a] = -12.0 * b.m.unit[3 * v + a];
+  const uint32_t pairs = ffseg::mark_intersections(b.m, x.data(), b.tri, mark.data());
+  CHECK(pairs > 0);
+  CHECK(mark[v] == 1);
+  CHECK(ffseg::mark_intersections(b.m, x.data(), b.tri, nullptr) >= 1);
+}
+
+TEST_CASE("step guard: a step that would cross is held back where it crosses, the rest moves in full") {
+  // The guard first scales the whole update by 1, 1/2, 1/4; when even a
+  // quarter would cross, only the region around the offender backs off.
+  StageBox b(12);
+  const uint32_t nv = b.m.nv;
+  const std::vector<double> x_old = b.sphere(10);
+  // Proposal: every vertex 1 mm outward; one vertex 50 mm through the far side
+  // (a quarter of that still crosses).
+  const uint32_t bad = nv / 3;
+  std::vector<double> x_new(size_t(3) * nv);
+  for (uint32_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a)
+      x_new[size_t(a) * nv + v] = (v == bad ? -50.0 : 11.0) * b.m.unit[3 * v + a];
+  std::vector<double> xs(size_t(3) * nv), share(nv);
+  std::vector<uint8_t> mark(nv), grow(nv);
+  const double kept = ffseg::guard_step(b.m, x_old.data(), x_new.data(), xs.data(), share.data(), mark.data(),
+                                        grow.data(), b.tri);
+  CAPTURE(kept);
+  CHECK(kept < 1.0);
+  CHECK(kept > 0.5);  // one region backs off, not the whole mesh
+  std::vector<double> out(size_t(3) * nv);
+  for (uint32_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a) out[3 * v + a] = x_new[size_t(a) * nv + v];
+  CHECK(ffseg::mark_intersections(b.m, out.data(), b.tri, nullptr) == 0);
+  CHECK(ffseg::mark_violations(b.m, x_old.data(), out.data(), nullptr) == 0);
+  // A vertex a quarter turn away from the offender (its path and the spot
+  // where it would come out are both far) moved its full millimetre.
+  uint32_t far = 0;
+  double best = 1e300;
+  for (uint32_t v = 0; v < nv; ++v) {
+    double dot = 0;
+    for (int a = 0; a < 3; ++a) dot += b.m.unit[3 * v + a] * b.m.unit[3 * bad + a];
+    if (std::fabs(dot) < best) { best = std::fabs(dot); far = v; }
+  }
+  double r = 0;
+  for (int a = 0; a < 3; ++a) r += out[3 * far + a] * out[3 * far + a];
+  CAPTURE(far);
+  CAPTURE(share[far]);
+  CHECK(std::sqrt(r) == doctest::Approx(11.0).epsilon(1e-9));
+  // The offender did not go through.
+  double dot = 0;
+  for (int a = 0; a < 3; ++a) dot += out[3 * bad + a] * b.m.unit[3 * bad + a];
+  CHECK(dot > 0);
+}
