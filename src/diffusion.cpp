@@ -4,8 +4,48 @@
 
 namespace ffseg {
 
+namespace {
+
+// Every vertex has a displacement (the usual case after harmonic_fill): each
+// round is the plain 5-point mean, summed in the general loop's order (from
+// 0, the vertex, then its neighbours) so every value is bit for bit the
+// same; rounds alternate between d and tmp instead of copying back.
+void diffuse_all(const CubeSphere& m, uint32_t rounds, double* d, double* tmp) {
+  const uint32_t nv = m.nv;
+  const uint32_t* nbr = m.nbr;
+  double* src = d;
+  double* dst = tmp;
+  for (uint32_t r = 0; r < rounds; ++r) {
+    for (uint32_t v = 0; v < nv; ++v) {
+      const uint32_t* nb = nbr + 4 * size_t(v);
+      const double *p = src + 3 * size_t(v), *p0 = src + 3 * size_t(nb[0]), *p1 = src + 3 * size_t(nb[1]),
+                   *p2 = src + 3 * size_t(nb[2]), *p3 = src + 3 * size_t(nb[3]);
+      double* q = dst + 3 * size_t(v);
+      for (int a = 0; a < 3; ++a) q[a] = ((((0.0 + p[a]) + p0[a]) + p1[a]) + p2[a] + p3[a]) / 5;
+    }
+    double* t = src;
+    src = dst;
+    dst = t;
+  }
+  if (src != d)
+    for (size_t q = 0; q < size_t(3) * nv; ++q) d[q] = src[q];
+}
+
+}  // namespace
+
 void diffuse_displacements(const CubeSphere& m, uint32_t rounds, double* d, uint8_t* has, double* tmp,
                            uint8_t* tmp_has) {
+  bool all = true;
+  for (uint32_t v = 0; v < m.nv && all; ++v) all = has[v] != 0;
+  if (all && rounds > 0) {
+    // The general loop would leave tmp and tmp_has as the last round's.
+    diffuse_all(m, rounds, d, tmp);
+    for (uint32_t v = 0; v < m.nv; ++v) {
+      has[v] = 1;
+      tmp_has[v] = 1;
+    }
+    return;
+  }
   for (uint32_t r = 0; r < rounds; ++r) {
     for (uint32_t v = 0; v < m.nv; ++v) {
       double acc[3] = {0, 0, 0};

@@ -16,7 +16,7 @@ void SpatialGrid::carve(Arena& a, uint32_t max_points) {
 void BoxGrid::carve(Arena& a, uint32_t max_boxes) {
   max_entries_ = kMaxEntries * max_boxes;
   table_ = 1;
-  while (table_ < 8 * max_boxes) table_ <<= 1;
+  while (table_ < 2 * max_boxes) table_ <<= 1;
   mask_ = table_ - 1;
   start_ = a.alloc<uint32_t>(size_t(table_) + 1);
   ids_ = a.alloc<uint32_t>(max_entries_);

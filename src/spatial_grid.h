@@ -159,6 +159,24 @@ class BoxGrid {
         }
   }
 
+  // Calls f(i, j, key) for every two entries i < j (box ids) of one bucket
+  // with the same packed cell key, walking the table in order (no lookups).
+  // Cells whose keys alias share a bucket and a key: the caller tests that
+  // key == packed_cell() of the cell where the pair counts. Stops when f
+  // returns true; returns whether it did.
+  template <class F>
+  bool for_each_cell_pair(F&& f) const {
+    for (uint32_t hb = 0; hb < table_; ++hb) {
+      const uint32_t e = start_[hb + 1];
+      for (uint32_t k = start_[hb]; k + 1 < e; ++k)
+        for (uint32_t l = k + 1; l < e; ++l)
+          if (key_[l] == key_[k] && f(ids_[k], ids_[l], key_[k])) return true;
+    }
+    return false;
+  }
+  // The packed key of the cell holding point p.
+  uint32_t packed_cell(const double* p) const { return pack(cell(p[0]), cell(p[1]), cell(p[2])); }
+
  private:
   uint32_t hash(int64_t x, int64_t y, int64_t z) const {
     const uint64_t h = uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;

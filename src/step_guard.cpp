@@ -26,9 +26,8 @@ void tri_normal(const double* a, const double* b, const double* c, double n[3]) 
 
 // Normal of the triangle of face f (split for positions x) holding the directed
 // edge a -> b.
-void edge_triangle_normal(const CubeSphere& m, uint32_t f, uint32_t a, uint32_t b, const double* x, double n[3]) {
-  uint32_t tri[6];
-  const int nt = face_triangles(m, f, tri, x);
+// tri: the face's nt triangles as face_triangles() splits it for x.
+void split_edge_normal(const uint32_t* tri, int nt, uint32_t a, uint32_t b, const double* x, double n[3]) {
   for (int t = 0; t < nt; ++t) {
     const uint32_t* id = tri + 3 * t;
     for (int k = 0; k < 3; ++k)
@@ -38,6 +37,11 @@ void edge_triangle_normal(const CubeSphere& m, uint32_t f, uint32_t a, uint32_t 
       }
   }
   n[0] = n[1] = n[2] = 0;
+}
+
+void edge_triangle_normal(const CubeSphere& m, uint32_t f, uint32_t a, uint32_t b, const double* x, double n[3]) {
+  uint32_t tri[6];
+  split_edge_normal(tri, face_triangles(m, f, tri, x), a, b, x, n);
 }
 
 double cos_of(const double a[3], const double b[3]) {
@@ -70,9 +74,9 @@ uint8_t face_offences(const CubeSphere& m, uint32_t f, const double* x_old, cons
   const uint32_t* q = m.faces + 4 * size_t(f);
   const int k = q[3] == kNone ? 3 : 4;
   // Folds: inside the quad (between its two triangles) and across each edge.
+  uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
+  const int ntn = face_triangles(m, f, tn, xs);
   if (nt == 2) {
-    uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
-    face_triangles(m, f, tn, xs);
     double a[3], b[3];
     tri_normal(xs + 3 * size_t(tn[0]), xs + 3 * size_t(tn[1]), xs + 3 * size_t(tn[2]), a);
     tri_normal(xs + 3 * size_t(tn[3]), xs + 3 * size_t(tn[4]), xs + 3 * size_t(tn[5]), b);
@@ -88,7 +92,7 @@ uint8_t face_offences(const CubeSphere& m, uint32_t f, const double* x_old, cons
     if (g == kNone || g < f) continue;  // each shared edge once
     const uint32_t a = q[e], b = q[(e + 1) % k];
     double nf[3], ng[3];
-    edge_triangle_normal(m, f, a, b, xs, nf);
+    split_edge_normal(tn, ntn, a, b, xs, nf);
     edge_triangle_normal(m, g, b, a, xs, ng);
     if (cos_of(nf, ng) >= kFoldCos) continue;
     edge_triangle_normal(m, f, a, b, x_old, nf);
