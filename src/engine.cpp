@@ -406,8 +406,22 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
   }
   lap(kStageSearch);
 
+  // How far the vertices moved this step, and the report of it.
   double moved = 0;
   uint32_t moving = 0;
+  auto tally = [&](double d2) {
+    const double d = std::sqrt(d2);
+    moved += d;
+    moving += d > kStillFactor * params_.convergence_mm;
+  };
+  auto report = [&](uint32_t avoided, uint32_t folds) {
+    if (slot >= kReportObjects) return;
+    r->moving[slot] = moving;
+    r->mean_displacement_mm[slot] = moved / nv;
+    r->with_target[slot] = found;
+    r->flips_avoided[slot] = avoided;
+    r->folds_avoided[slot] = folds;
+  };
   if (naive_) {
     for (uint32_t v = 0; v < nv; ++v) {
       if (!s.has[v]) continue;
@@ -417,14 +431,9 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
         x[3 * size_t(v) + a] += dv;
         d2 += dv * dv;
       }
-      moved += std::sqrt(d2);
-      moving += std::sqrt(d2) > kStillFactor * params_.convergence_mm;
+      tally(d2);
     }
-    if (slot < kReportObjects) {
-      r->moving[slot] = moving;
-      r->mean_displacement_mm[slot] = moved / nv;
-      r->with_target[slot] = found;
-    }
+    report(0, 0);
     return Err::ok;
   }
 
@@ -509,16 +518,9 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
       d2 += (nx - x[3 * size_t(v) + a]) * (nx - x[3 * size_t(v) + a]);
       x[3 * size_t(v) + a] = nx;
     }
-    moved += std::sqrt(d2);
-    moving += std::sqrt(d2) > kStillFactor * params_.convergence_mm;
+    tally(d2);
   }
-  if (slot < kReportObjects) {
-    r->moving[slot] = moving;
-    r->mean_displacement_mm[slot] = moved / nv;
-    r->with_target[slot] = found;
-    r->flips_avoided[slot] = avoided;
-    r->folds_avoided[slot] = folds;
-  }
+  report(avoided, folds);
   return Err::ok;
 }
 

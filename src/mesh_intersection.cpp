@@ -52,8 +52,7 @@ inline __attribute__((always_inline)) bool segment_crosses(const double* p, cons
   return (e0 > 0 && e1 > 0 && e2 > 0) || (e0 < 0 && e1 < 0 && e2 < 0);
 }
 
-bool triangles_cross(const CubeSphere& m, const double* x, const uint32_t* a, const uint32_t* b) {
-  (void)m;
+bool triangles_cross(const double* x, const uint32_t* a, const uint32_t* b) {
   int shared = 0, sa = -1, sb = -1;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
@@ -141,7 +140,7 @@ struct Pairs {
     if (dc2 > reach * reach) return false;
     const uint32_t* a = s.tris + 3 * size_t(t);
     const uint32_t* b = s.tris + 3 * size_t(u);
-    if (!triangles_cross(m, x, a, b)) return false;
+    if (!triangles_cross(x, a, b)) return false;
     ++count;
     if (!mark) return true;
     for (int k = 0; k < 3; ++k) mark[a[k]] = mark[b[k]] = 1;

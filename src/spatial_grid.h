@@ -16,7 +16,58 @@ inline int64_t floor_i64(double v) {
   return i - (v < double(i));
 }
 
-class SpatialGrid {
+// What both grids share: a power-of-two table of buckets over hashed integer
+// cells of size 1 / inv_h_, and a counting sort of entries into it (count
+// per bucket, prefix sums, scatter with start_ as a cursor, shift back).
+class CellTable {
+ public:
+  int64_t cell(double v) const { return floor_i64(v * inv_h_); }
+
+ protected:
+  // At least 2 * cells buckets; room for `entries` ids.
+  void carve_table(Arena& a, uint32_t cells, uint32_t entries) {
+    table_ = 1;
+    while (table_ < 2 * cells) table_ <<= 1;
+    mask_ = table_ - 1;
+    start_ = a.alloc<uint32_t>(size_t(table_) + 1);
+    ids_ = a.alloc<uint32_t>(entries);
+  }
+  uint32_t hash(int64_t x, int64_t y, int64_t z) const {
+    const uint64_t h = uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;
+    return uint32_t(h & mask_);
+  }
+  // Calls f(x, y, z) for every cell the box [lo, hi] overlaps.
+  template <class F>
+  void for_each_cell_of(const double* lo, const double* hi, F&& f) const {
+    int64_t a[3], b[3];
+    for (int k = 0; k < 3; ++k) {
+      a[k] = cell(lo[k]);
+      b[k] = cell(hi[k]);
+    }
+    for (int64_t z = a[2]; z <= b[2]; ++z)
+      for (int64_t y = a[1]; y <= b[1]; ++y)
+        for (int64_t x = a[0]; x <= b[0]; ++x) f(x, y, z);
+  }
+  // Counting sort: clear, ++start_[bucket + 1] per entry, then starts(),
+  // then ids_[start_[bucket]++] = id per entry, then restore().
+  void clear_counts() {
+    for (uint32_t b = 0; b <= table_; ++b) start_[b] = 0;
+  }
+  void starts() {
+    for (uint32_t b = 0; b < table_; ++b) start_[b + 1] += start_[b];
+  }
+  void restore() {
+    for (uint32_t b = table_; b > 0; --b) start_[b] = start_[b - 1];
+    start_[0] = 0;
+  }
+
+  uint32_t table_ = 0, mask_ = 0;
+  uint32_t* start_ = nullptr;  // table_ + 1
+  uint32_t* ids_ = nullptr;    // entries, sorted by bucket
+  double inv_h_ = 1;
+};
+
+class SpatialGrid : public CellTable {
  public:
   void carve(Arena& a, uint32_t max_points);
   // pts: 3 * count coordinates; h: cell size (> 0).
@@ -43,46 +94,30 @@ class SpatialGrid {
   // (a superset of the points inside it; the caller filters).
   template <class F>
   void for_each_in_cells(const double lo[3], const double hi[3], F&& f) const {
-    int64_t a[3], b[3];
-    for (int k = 0; k < 3; ++k) {
-      a[k] = cell(lo[k]);
-      b[k] = cell(hi[k]);
-    }
-    for (int64_t z = a[2]; z <= b[2]; ++z)
-      for (int64_t y = a[1]; y <= b[1]; ++y)
-        for (int64_t x = a[0]; x <= b[0]; ++x) {
-          const uint32_t h = hash(x, y, z);
-          const uint64_t pc = pack(x, y, z);
-          for (uint32_t k = start_[h]; k < start_[h + 1]; ++k)
-            if (cellkey_[k] == pc) f(ids_[k]);
-        }
+    for_each_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+      const uint32_t h = hash(x, y, z);
+      const uint64_t pc = pack(x, y, z);
+      for (uint32_t k = start_[h]; k < start_[h + 1]; ++k)
+        if (cellkey_[k] == pc) f(ids_[k]);
+    });
   }
 
  private:
-  int64_t cell(double v) const { return floor_i64(v * inv_h_); }
-  uint32_t hash(int64_t x, int64_t y, int64_t z) const {
-    const uint64_t h = uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;
-    return uint32_t(h & mask_);
-  }
   // 21 bits per axis: two cells of one query never differ by 2^21 on an axis.
   static uint64_t pack(int64_t x, int64_t y, int64_t z) {
     return (uint64_t(x) & 0x1FFFFF) | (uint64_t(y) & 0x1FFFFF) << 21 | (uint64_t(z) & 0x1FFFFF) << 42;
   }
 
-  uint32_t max_points_ = 0, table_ = 0, mask_ = 0;
-  uint32_t* start_ = nullptr;    // table_ + 1
-  uint32_t* ids_ = nullptr;      // max_points_, sorted by bucket
-  uint64_t* cellkey_ = nullptr;  // max_points_: packed cell of ids_[k]
-  uint32_t* key_ = nullptr;      // max_points_: bucket of point i (build only)
+  uint64_t* cellkey_ = nullptr;  // max points: packed cell of ids_[k]
+  uint32_t* key_ = nullptr;      // max points: bucket of point i (build only)
   const double* pts_ = nullptr;
-  double inv_h_ = 1;
 };
 
 template <class Keep>
 void SpatialGrid::build_if(const double* pts, uint32_t count, double h, Keep&& keep) {
   pts_ = pts;
   inv_h_ = 1.0 / h;
-  for (uint32_t b = 0; b <= table_; ++b) start_[b] = 0;
+  clear_counts();
   for (uint32_t i = 0; i < count; ++i) {
     if (!keep(i)) {
       key_[i] = table_;  // not inserted
@@ -92,8 +127,7 @@ void SpatialGrid::build_if(const double* pts, uint32_t count, double h, Keep&& k
     key_[i] = hash(cell(p[0]), cell(p[1]), cell(p[2]));
     ++start_[key_[i] + 1];
   }
-  for (uint32_t b = 0; b < table_; ++b) start_[b + 1] += start_[b];
-  // Scatter using start_ as a cursor, then shift back.
+  starts();
   for (uint32_t i = 0; i < count; ++i) {
     if (key_[i] == table_) continue;
     const double* p = pts + 3 * size_t(i);
@@ -101,8 +135,7 @@ void SpatialGrid::build_if(const double* pts, uint32_t count, double h, Keep&& k
     ids_[k] = i;
     cellkey_[k] = pack(cell(p[0]), cell(p[1]), cell(p[2]));
   }
-  for (uint32_t b = table_; b > 0; --b) start_[b] = start_[b - 1];
-  start_[0] = 0;
+  restore();
 }
 
 // A hashed uniform grid over boxes, held in workspace memory: every box that
@@ -111,7 +144,7 @@ void SpatialGrid::build_if(const double* pts, uint32_t count, double h, Keep&& k
 // the cells a box overlaps; an entry is reported with the cell it was met in,
 // so a caller can count a pair once (in the cell holding the low corner of
 // the two boxes' intersection).
-class BoxGrid {
+class BoxGrid : public CellTable {
  public:
   static constexpr uint32_t kMaxEntries = 8;  // per box
   void carve(Arena& a, uint32_t max_boxes);
@@ -126,7 +159,6 @@ class BoxGrid {
   void build(const double* lo, const double* hi, uint32_t count, Keep&& keep);
 
   double cell_size() const { return h_; }
-  int64_t cell(double v) const { return floor_i64(v * inv_h_); }
   bool fits(const double* lo, const double* hi) const {
     for (int a = 0; a < 3; ++a)
       if (!(cell(hi[a]) - cell(lo[a]) <= 1)) return false;
@@ -143,20 +175,13 @@ class BoxGrid {
   // (cell: int64_t[3]); an entry of a box is met once per cell it shares.
   template <class F>
   void for_each_entry(const double* lo, const double* hi, F&& f) const {
-    int64_t a[3], b[3];
-    for (int k = 0; k < 3; ++k) {
-      a[k] = cell(lo[k]);
-      b[k] = cell(hi[k]);
-    }
-    int64_t c[3];
-    for (c[2] = a[2]; c[2] <= b[2]; ++c[2])
-      for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
-        for (c[0] = a[0]; c[0] <= b[0]; ++c[0]) {
-          const uint32_t hb = hash(c[0], c[1], c[2]);
-          const uint32_t pc = pack(c[0], c[1], c[2]);
-          for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
-            if (key_[k] == pc) f(ids_[k], static_cast<const int64_t*>(c));
-        }
+    for_each_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+      const int64_t c[3] = {x, y, z};
+      const uint32_t hb = hash(x, y, z);
+      const uint32_t pc = pack(x, y, z);
+      for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
+        if (key_[k] == pc) f(ids_[k], c);
+    });
   }
 
   // Calls f(i, j, key) for every two entries i < j (box ids) of one bucket
@@ -178,45 +203,26 @@ class BoxGrid {
   uint32_t packed_cell(const double* p) const { return pack(cell(p[0]), cell(p[1]), cell(p[2])); }
 
  private:
-  uint32_t hash(int64_t x, int64_t y, int64_t z) const {
-    const uint64_t h = uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;
-    return uint32_t(h & mask_);
-  }
   // 10 bits per axis: the cells of one fitting box never alias; a wider
   // query may meet an aliased entry, which the caller's cell test rejects.
   static uint32_t pack(int64_t x, int64_t y, int64_t z) {
     return uint32_t((uint64_t(x) & 0x3FF) | (uint64_t(y) & 0x3FF) << 10 | (uint64_t(z) & 0x3FF) << 20);
   }
-  template <class F>
-  void for_each_cell_of(const double* lo, const double* hi, F&& f) const {
-    int64_t a[3], b[3];
-    for (int k = 0; k < 3; ++k) {
-      a[k] = cell(lo[k]);
-      b[k] = cell(hi[k]);
-    }
-    for (int64_t z = a[2]; z <= b[2]; ++z)
-      for (int64_t y = a[1]; y <= b[1]; ++y)
-        for (int64_t x = a[0]; x <= b[0]; ++x) f(x, y, z);
-  }
 
-  uint32_t max_entries_ = 0, table_ = 0, mask_ = 0;
-  uint32_t* start_ = nullptr;  // table_ + 1
-  uint32_t* ids_ = nullptr;    // max_entries_, sorted by bucket
-  uint32_t* key_ = nullptr;    // max_entries_: packed cell of ids_[k]
-  double h_ = 1, inv_h_ = 1;
+  uint32_t* key_ = nullptr;  // kMaxEntries per box: packed cell of ids_[k]
+  double h_ = 1;
 };
 
 template <class Keep>
 void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& keep) {
-  for (uint32_t b = 0; b <= table_; ++b) start_[b] = 0;
+  clear_counts();
   auto entered = [&](uint32_t i) { return keep(i) && fits(lo + 3 * size_t(i), hi + 3 * size_t(i)); };
   for (uint32_t i = 0; i < count; ++i) {
     if (!entered(i)) continue;
     for_each_cell_of(lo + 3 * size_t(i), hi + 3 * size_t(i),
                      [&](int64_t x, int64_t y, int64_t z) { ++start_[hash(x, y, z) + 1]; });
   }
-  for (uint32_t b = 0; b < table_; ++b) start_[b + 1] += start_[b];
-  // Scatter using start_ as a cursor, then shift back.
+  starts();
   for (uint32_t i = 0; i < count; ++i) {
     if (!entered(i)) continue;
     for_each_cell_of(lo + 3 * size_t(i), hi + 3 * size_t(i), [&](int64_t x, int64_t y, int64_t z) {
@@ -225,8 +231,7 @@ void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& k
       key_[k] = pack(x, y, z);
     });
   }
-  for (uint32_t b = table_; b > 0; --b) start_[b] = start_[b - 1];
-  start_[0] = 0;
+  restore();
 }
 
 }  // namespace ffseg

@@ -165,19 +165,27 @@ void relax(const CubeSphere& m, double* share, size_t v) {
   }
 }
 
-void blend(size_t nv, const double* x_old, const double* x_new, double s, double* xs) {
-  for (size_t v = 0; v < nv; ++v)
-    for (int c = 0; c < 3; ++c) {
-      const double o = x_old[3 * v + c];
-      xs[3 * v + c] = o + s * (x_new[c * nv + v] - o);
-    }
-}
-
 bool same_bits(double a, double b) {
   uint64_t x, y;
   std::memcpy(&x, &a, sizeof x);
   std::memcpy(&y, &b, sizeof y);
   return x == y;
+}
+
+// xs = x_old + g share (x_new - x_old) per vertex; moved (may be nullptr)
+// receives which vertices' positions changed bit for bit.
+void blend(size_t nv, const double* x_old, const double* x_new, double g, const double* share, double* xs,
+           uint8_t* moved) {
+  for (size_t v = 0; v < nv; ++v) {
+    bool changed = false;
+    for (int c = 0; c < 3; ++c) {
+      const double o = x_old[3 * v + c];
+      const double p = o + g * share[v] * (x_new[c * nv + v] - o);
+      changed |= !same_bits(p, xs[3 * v + c]);
+      xs[3 * v + c] = p;
+    }
+    if (moved) moved[v] = changed;
+  }
 }
 
 // Marks (ts.vertex_marks) and counts every offence and intersection at xs,
@@ -229,14 +237,15 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // {1, 1/2, 1/4} that turns no triangle by 90 degrees and folds no edge.
   // Scaling the whole update keeps it smooth.
   const size_t nv = m.nv;
+  for (size_t v = 0; v < nv; ++v) share[v] = 1.0;
   double s = 1.0;
-  blend(nv, x_old, x_new, s, xs);
+  blend(nv, x_old, x_new, s, share, xs, nullptr);
   int halvings = 0;
   bool bad = violates(m, x_old, xs, ts);
   while (bad && halvings < kGlobalHalvings) {
     ++halvings;
     s *= 0.5;
-    blend(nv, x_old, x_new, s, xs);
+    blend(nv, x_old, x_new, s, share, xs, nullptr);
     bad = violates(m, x_old, xs, ts);
   }
   for (size_t v = 0; v < nv; ++v) share[v] = s;
@@ -245,17 +254,10 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // taper back over a few rings around them, so the rest of the mesh keeps
   // moving at full speed; after kLocalRounds the whole update is halved on top
   // (down to nothing).
-  auto blend_shares = [&](double g) {
-    for (size_t v = 0; v < nv; ++v)
-      for (int c = 0; c < 3; ++c) {
-        const double o = x_old[3 * v + c];
-        xs[3 * v + c] = o + g * share[v] * (x_new[c * nv + v] - o);
-      }
-  };
   bool clean = !bad;
   if (!clean) {
     for (size_t v = 0; v < nv; ++v) share[v] = 1.0;
-    blend_shares(1.0);
+    blend(nv, x_old, x_new, 1.0, share, xs, nullptr);
   }
   // Each round's test of its new positions also gives the next round's marks
   // (ts.vertex_marks); the first round marks from scratch.
@@ -275,17 +277,7 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
       for (size_t v = 0; v < nv; ++v) relax(m, share, v);
       for (size_t v = nv; v-- > 0;) relax(m, share, v);
     }
-    // blend_shares(1.0), noting which vertices moved.
-    for (size_t v = 0; v < nv; ++v) {
-      bool changed = false;
-      for (int c = 0; c < 3; ++c) {
-        const double o = x_old[3 * v + c];
-        const double p = o + 1.0 * share[v] * (x_new[c * nv + v] - o);
-        changed |= !same_bits(p, xs[3 * v + c]);
-        xs[3 * v + c] = p;
-      }
-      moved[v] = changed;
-    }
+    blend(nv, x_old, x_new, 1.0, share, xs, moved);
     clean = mark_all(m, x_old, xs, moved, ts) == 0;
   }
   double g = 1.0;
@@ -295,7 +287,7 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
       break;
     }
     g *= 0.5;
-    blend_shares(g);
+    blend(nv, x_old, x_new, g, share, xs, nullptr);
     clean = !violates(m, x_old, xs, ts);
   }
   double kept = 0;
