@@ -291,6 +291,30 @@ bool overlay_render(const OverlayVolume& vol, const std::vector<OverlayObject>& 
                                   uint8_t(std::lround(px[2]))};
           cv.set(x0 + x, y0 + y, col);
         }
+      // The reference contour of this row's object: yellow dashes straddling
+      // its boundary like the object contours, drawn under them.
+      if (!objects.empty() && objects[size_t(r)].truth) {
+        static const uint8_t yellow[3] = {255, 215, 0};
+        const uint8_t* tm = objects[size_t(r)].truth;
+        std::vector<uint8_t> tin(size_t(W) * size_t(H));
+        for (int y = 0; y < H; ++y)
+          for (int x = 0; x < W; ++x) tin[size_t(y) * size_t(W) + size_t(x)] = tm[linear(x, y)] != 0;
+        const auto at = [&](int x, int y) {
+          return x >= 0 && y >= 0 && x < W && y < H && tin[size_t(y) * size_t(W) + size_t(x)];
+        };
+        const int dash = 4 * lw + 2;
+        for (int y = 0; y < H; ++y)
+          for (int x = 0; x < W; ++x) {
+            if ((x + y) % (2 * dash) >= dash + dash / 2) continue;  // gaps a third of the period
+            const bool in = at(x, y);
+            const int rr = in ? lw : lw - 1;
+            bool edge = false;
+            for (int dy = -rr; dy <= rr && !edge; ++dy)
+              for (int dx = -rr; dx <= rr && !edge; ++dx)
+                if (at(x + dx, y + dy) != in) edge = true;
+            if (edge) cv.set(x0 + x, y0 + y, yellow);
+          }
+      }
       // Contours: pixels with a pixel of the other side within lw (Chebyshev),
       // so the line straddles the boundary; the lowest index is drawn last,
       // so it is on top where objects touch.

@@ -2,7 +2,8 @@
 //
 // One row per object: an axial, a coronal and a sagittal slice through that
 // object's centre, side by side, the grey image windowed to [lo, hi], and
-// every object's contour drawn in its own colour (with a faint tint inside).
+// every object's contour drawn in its own colour (with a faint tint inside);
+// an object's reference mask, when given, as a dashed yellow contour in its row.
 // Slices are resampled to square pixels (the physical aspect is kept for
 // anisotropic voxels) and enlarged for small volumes.
 //
@@ -27,6 +28,8 @@ struct OverlayObject {
   uint8_t rgb[3] = {255, 0, 0};
   const uint8_t* mask = nullptr;  // the volume grid, i fastest; non-zero = inside
   int center_ijk[3] = {0, 0, 0};  // the slices of this object's row go through it
+  const uint8_t* truth = nullptr; // optional reference mask (same grid): drawn as a dashed
+                                  // yellow contour in this object's row, under the object's
 };
 
 struct OverlayVolume {

@@ -300,6 +300,7 @@ const char* const kSegmentUsageText =
     "                  --truth-labels number); where objects overlap the first wins\n"
     "  overlay.png     axial, coronal and sagittal slices through each object's\n"
     "                  centre with every object's contour in its own colour\n"
+    "                  (with --truth: the reference label as a dashed yellow contour)\n"
     "  report.json     input, steps, convergence, volume (ml), mesh size, metrics,\n"
     "                  time per stage, workspace bytes, version, parameters\n"
     "Everything is written to a temporary directory beside DIR and renamed into\n"
@@ -697,6 +698,7 @@ int cmd_segment(int argc, char** argv) {
       oo[k].name = names[k];
       ffseg_tools::overlay_palette(k, oo[k].rgb);
       oo[k].mask = res[k].mask.data();
+      if (k < truth_masks.size()) oo[k].truth = truth_masks[k].data();
       for (int a = 0; a < 3; ++a) oo[k].center_ijk[a] = res[k].centre_ijk[size_t(a)];
     }
     ffseg_tools::RgbImage picture;
