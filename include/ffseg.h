@@ -270,7 +270,10 @@ typedef struct ffseg_step_info {
 
 /* One deformation step of every placed object (thesis Algorithm 1). Returns
  * FFSEG_OK, or FFSEG_CONVERGED once every object's mean displacement is below
- * params.convergence_mm. info may be NULL; otherwise info->struct_size must be
+ * params.convergence_mm. An object that has converged stays where it is on
+ * later steps (its report reads 0 mm) until ffseg_init_sphere places it again
+ * or ffseg_set_params / ffseg_set_volume change what it deforms towards, so
+ * stepping past convergence is harmless. info may be NULL; otherwise info->struct_size must be
  * set. Errors: MISUSE (no volume or no object), NUMERIC (mesh unchanged),
  * ROI_TOO_LARGE, NOT_IMPLEMENTED (a target mode this build lacks). */
 FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info);

@@ -139,7 +139,10 @@ Engine* Engine::create(const Config& c, void* ws, size_t bytes) {
 
 Err Engine::set_params(const Params& p) {
   const Err r = check_params(p, msg_, kMsgLen);
-  if (r == Err::ok) params_ = p;
+  if (r == Err::ok) {
+    params_ = p;
+    for (uint32_t i = 0; i < cfg_.max_objects; ++i) objects_[i].converged = false;  // new terms: move again
+  }
   return r;
 }
 
@@ -150,6 +153,7 @@ Err Engine::set_volume(const VolumeDesc& d) {
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     objects_[i].roi.invalidate();
     objects_[i].model.reset();
+    objects_[i].converged = false;
   }
   return Err::ok;
 }
@@ -204,6 +208,7 @@ Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
   o.radius = r;
   o.placed = true;
   o.polish = false;
+  o.converged = false;
   o.roi.invalidate();
   o.model.reset();
   return Err::ok;
@@ -310,6 +315,14 @@ Err Engine::step(StepReport* r) {
   bool all_converged = true;
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     if (!objects_[i].placed) continue;
+    // A converged object stays where it is: it has reached the rest the
+    // caller asked for, and further steps would only add wear (a mesh kept
+    // stepping at rest slowly roughens: the sphere phantom's Dice falls from
+    // 0.999 to 0.983 over 140 more steps).
+    if (objects_[i].converged) {
+      ++active;
+      continue;
+    }
     const Err e = step_object(i, r, active < kReportObjects ? active : kReportObjects);
     if (e != Err::ok) return e;
     // With binary targets, the first time an object comes to rest it goes on
@@ -322,6 +335,7 @@ Err Engine::step(StepReport* r) {
                                                                     params_.target_mode == TargetMode::binary) : true;
     const bool polishes = params_.target_mode == TargetMode::binary;
     if (!rest || (polishes && !o.polish)) all_converged = false;
+    else o.converged = true;
     if (rest && polishes) o.polish = true;
     ++active;
   }

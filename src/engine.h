@@ -85,6 +85,7 @@ struct Object {
   IntensityModel model;
   double kappa = 0;  // the conductance used, kept when the crop is recomputed
   bool polish = false;  // came to rest once: diffusion reduced (engine.cpp)
+  bool converged = false;  // at rest for good: later steps leave it where it is
 };
 
 enum Stage : int {
