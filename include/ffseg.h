@@ -167,7 +167,8 @@ typedef struct ffseg_params {
   uint32_t diffusion_iterations; /* rounds of displacement averaging (eq. 4.2.2); 0..100; 0 = automatic:
                                     20 (n / 33)^2 for mesh resolution n (1 at least); with binary targets,
                                     once an object has come to rest it polishes with a twentieth of the
-                                    rounds until it rests again; default 0 */
+                                    rounds until it rests again; an odd count is rounded up (an odd number
+                                    of rounds feeds a sawtooth); default 0 */
   uint32_t consecutive_background; /* N of thesis 5.3; 1..64; default 3 */
   /* Grey-level targets (FFSEG_TARGET_INTENSITY, thesis chapter 5): */
   uint32_t smoothing_iterations; /* Perona-Malik steps on the cropped region (eq. 5.2.1); 0..100; default 5 */

@@ -1,9 +1,10 @@
 // The Laplacian deformation energy of thesis 4.2.5 (METHOD.md section 2.6):
 //   E = lambda_L |A x' - A x|^2 + sum_i w_i |x'_i - p_i|^2
-//       + lambda_u sum_loop-edges |(x'_i - x'_j) - (l_mean / l_ij)(x_i - x_j)|^2
+//       + lambda_u sum_loop-edges |(x'_i - x'_j) - min(1, l_mean / l_ij)(x_i - x_j)|^2
 // with A the uniform Laplacian (1 on the diagonal, -1/4 on the four
-// neighbours) and l_mean the loop's length through the targets over 4n. Its
-// normal equations share one SPD matrix for x, y and z: one factorisation,
+// neighbours) and l_mean the loop's length through the targets over 4n. The
+// thesis has l_mean / l_ij; the min(1, .) makes the uniform term a tension
+// (see the .cpp: pushing short edges apart buckles a loop). Its normal equations share one SPD matrix for x, y and z: one factorisation,
 // three right-hand sides.
 #pragma once
 #include <cstdint>

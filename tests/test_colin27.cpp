@@ -225,6 +225,12 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
   // caudate L 0.62, hippocampus L 0.55. Convergence on the mean displacement
   // alone for grey levels (putamen L 33 -> 21 steps): right-side mean 0.515;
   // held out: putamen L 0.41, thalamus L 0.60, caudate L 0.62, hippocampus L 0.55.
+  // Even diffusion rounds (4 at n = 12) and the tension-only uniform term
+  // (smooth meshes: median bend 3-7 degrees instead of 11-16, the guard 17-24 ms
+  // instead of 124-212 ms per structure): right-side mean 0.536; held out:
+  // putamen L 0.41, thalamus L 0.61, caudate L 0.60, hippocampus L 0.50. Over
+  // six perturbed spheres (FFSEG_JITTER=1) both means stay as they were (right
+  // 0.512, left 0.543 against 0.547).
   ffseg_tools::NiftiImage t1, aal;
   std::string err;
   REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
