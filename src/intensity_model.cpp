@@ -29,12 +29,29 @@ void say(char* msg, size_t n, const char* text) {
 // M-step; M components as a compile-time count so the per-sample arrays live
 // in registers. Per sample and component the operations and their order are
 // those of the plain loop, so the sums are bit-identical for every M.
-template <uint32_t M>
+//
+// The log-likelihood only decides when EM stops. EXACT: summed as
+// mx + log(s) per sample, in sample order (the reference). Otherwise the
+// per-sample log is replaced by one log per kLogChunk samples of the product of
+// their s (s in [1, M], so a chunk's product stays below 2^192): ll->sum gets
+// sum mx + sum log(product), ll->abs_mx sum |mx|, ll->log_s the sum of the
+// chunk logs. em_fit bounds the difference to the exact sum with these and
+// falls back to an EXACT pass when the stopping decision is not certain.
+constexpr uint32_t kLogChunk = 64;
+
+struct LogLik {
+  double sum = 0;     // sum over samples of mx + log(s) (exact or by chunks)
+  double abs_mx = 0;  // sum |mx| (chunked mode only)
+  double log_s = 0;   // sum log(s) (chunked mode only)
+};
+
+template <uint32_t M, bool EXACT>
 void e_step(const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih, double* Z,
-            double* Zx, double* Zxx, double* ll_io) {
+            double* Zx, double* Zxx, LogLik* ll_io) {
   double laa[M], mua[M], iha[M], z0[M], z1[M], z2[M];
   for (uint32_t i = 0; i < M; ++i) laa[i] = la[i], mua[i] = mu[i], iha[i] = ih[i], z0[i] = Z[i], z1[i] = Zx[i], z2[i] = Zxx[i];
-  double ll = *ll_io;
+  double ll = 0, smx = 0, amx = 0, lsum = 0, prod = 1;
+  uint32_t in_chunk = 0;
   for (uint32_t j = 0; j < n; ++j) {
     if (!std::isfinite(x[j])) continue;
     const double xj = double(x[j]) - shift;
@@ -50,7 +67,18 @@ void e_step(const float* x, uint32_t n, double shift, const double* la, const do
       const double e = l[i] - mx;
       s += (l[i] = e == 0 ? 1.0 : std::exp(e));
     }
-    ll += mx + std::log(s);
+    if (EXACT) {
+      ll += mx + std::log(s);
+    } else {
+      smx += mx;
+      amx += std::fabs(mx);
+      prod *= s;
+      if (++in_chunk == kLogChunk) {
+        lsum += std::log(prod);
+        prod = 1;
+        in_chunk = 0;
+      }
+    }
     const double inv = 1.0 / s;
     for (uint32_t i = 0; i < M; ++i) {
       const double z = l[i] * inv;  // z_ij, eq. 5.2.4
@@ -60,22 +88,60 @@ void e_step(const float* x, uint32_t n, double shift, const double* la, const do
     }
   }
   for (uint32_t i = 0; i < M; ++i) Z[i] = z0[i], Zx[i] = z1[i], Zxx[i] = z2[i];
-  *ll_io = ll;
+  if (EXACT) {
+    ll_io->sum = ll;
+  } else {
+    if (in_chunk) lsum += std::log(prod);
+    ll_io->sum = smx + lsum;
+    ll_io->abs_mx = amx;
+    ll_io->log_s = lsum;
+  }
 }
 
-void e_step_dispatch(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
-                     const double* ih, double* Z, double* Zx, double* Zxx, double* ll) {
+template <bool EXACT>
+void e_step_m(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
+              const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
   static_assert(IntensityModel::kMaxComponents == 8, "one e_step instance per component count");
   switch (m) {
-    case 1: e_step<1>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 2: e_step<2>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 3: e_step<3>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 4: e_step<4>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 5: e_step<5>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 6: e_step<6>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 7: e_step<7>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    default: e_step<8>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 1: e_step<1, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 2: e_step<2, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 3: e_step<3, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 4: e_step<4, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 5: e_step<5, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 6: e_step<6, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 7: e_step<7, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    default: e_step<8, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
   }
+}
+
+void e_step_dispatch(bool exact, uint32_t m, const float* x, uint32_t n, double shift, const double* la,
+                     const double* mu, const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
+  if (exact) e_step_m<true>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  else e_step_m<false>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+}
+
+// The exact mean log-likelihood (the reference sum) at parameters la, mu, ih.
+double exact_ll(uint32_t m, const float* x, uint32_t n, uint32_t nf, double shift, const double* la, const double* mu,
+                const double* ih, double half_log_2pi) {
+  double Z[IntensityModel::kMaxComponents] = {}, Zx[IntensityModel::kMaxComponents] = {},
+         Zxx[IntensityModel::kMaxComponents] = {};
+  LogLik L;
+  e_step_dispatch(true, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &L);
+  return L.sum / nf - half_log_2pi;
+}
+
+// Bound on |exact - chunked| mean log-likelihood. Per sample the reference
+// rounds log(s) (glibc: < 1 ulp) and mx + log(s); the recursive sum of n terms
+// errs by at most (n - 1) u sum |t_j|. The chunked sum rounds each product
+// (kLogChunk - 1 relative errors of u, log(1 + k u) <= k u per chunk), the
+// chunk logs and the two sums. Both are below (2 n + 16) u (sum |mx| + sum
+// log s + n); a factor 4 covers the chunked log_s standing in for the true
+// sum of log s and second-order terms. Then / nf and - log(2 pi) / 2 round
+// once each.
+double ll_error_bound(const LogLik& L, uint32_t n, uint32_t nf, double ll) {
+  const double u = 1.1102230246251565e-16;  // 2^-53
+  const double sum_abs = L.abs_mx + std::fabs(L.log_s) + double(n);
+  return 4.0 * (2.0 * double(n) + 16.0) * u * sum_abs / double(nf) + 8.0 * u * (std::fabs(ll) + 1.0);
 }
 
 }  // namespace
@@ -188,8 +254,12 @@ uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, 
   return K;
 }
 
-EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
-                double var_floor, double tol) {
+namespace {
+
+// em_fit; exact_result: also report the exact (reference) log-likelihood,
+// which may cost one more pass (the engine does not read it).
+EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
+                     double var_floor, double tol, bool exact_result) {
   EmResult r;
   uint32_t m = *m_io;
   if (n == 0 || m == 0) return r;
@@ -214,20 +284,38 @@ EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uin
     v[i] = std::max(comp[i].var, vmin);
   }
   const double half_log_2pi = 0.5 * std::log(6.283185307179586);
-  double ll_prev = -INFINITY;
+  // ll: exact (the reference sum) when ll_exact, else chunked with error
+  // bound ll_err (see ll_error_bound). The stopping test ll - ll_prev < tol is
+  // decided on the chunked values when the bounds make it certain, else both
+  // sides are recomputed exactly (the previous E-step's parameters are kept
+  // for that), so EM takes exactly the reference's iterations.
+  const uint32_t M = IntensityModel::kMaxComponents;
+  double ll_prev = -INFINITY, prev_err = 0;
+  bool prev_exact = true;
+  double pla[M], pmu[M], pih[M];  // parameters of the previous E-step
+  uint32_t pm = 0, cm = 0;
+  double la[M], ih[M], emu[M];
+  double ll = 0;
+  bool ll_exact = false;
+  // Which log-likelihood the reference reports: none, the last E-step's
+  // (cur), or the one before the last loop exit (prev, kept in pla/pmu/pih).
+  enum { kReportNone, kReportCur, kReportPrev } report = kReportNone;
   uint32_t it = 0;
   while (it < max_iterations) {
     ++it;
-    double la[IntensityModel::kMaxComponents], ih[IntensityModel::kMaxComponents];
-    double Z[IntensityModel::kMaxComponents] = {}, Zx[IntensityModel::kMaxComponents] = {},
-           Zxx[IntensityModel::kMaxComponents] = {};
+    double Z[M] = {}, Zx[M] = {}, Zxx[M] = {};
     for (uint32_t i = 0; i < m; ++i) {
       la[i] = std::log(a[i]) - 0.5 * std::log(v[i]);
       ih[i] = 0.5 / v[i];
+      emu[i] = mu[i];
     }
-    double ll = 0;
-    e_step_dispatch(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &ll);
-    ll = ll / nf - half_log_2pi;
+    const uint32_t em = m;
+    cm = em;
+    LogLik L;
+    e_step_dispatch(false, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &L);
+    ll = L.sum / nf - half_log_2pi;
+    ll_exact = false;
+    const double ll_err = ll_error_bound(L, n, nf, ll);
     // M-step (eq. 5.2.5-5.2.7; 5.2.7 is the variance), variance floored.
     uint32_t k = 0;
     for (uint32_t i = 0; i < m; ++i) {
@@ -237,16 +325,44 @@ EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uin
       v[k] = std::max(Zxx[i] / Z[i] - mu[k] * mu[k], vmin);
       ++k;
     }
-    if (k == 0) break;  // cannot happen (the weights sum to n); keep the last parameters
+    if (k == 0) {  // cannot happen (the weights sum to n); keep the last parameters
+      report = it > 1 ? kReportPrev : kReportNone;
+      break;
+    }
     if (k < m) {
       double t = 0;
       for (uint32_t i = 0; i < k; ++i) t += a[i];
       for (uint32_t i = 0; i < k; ++i) a[i] /= t;
       m = k;
     }
-    r.log_likelihood = ll;
-    if (ll - ll_prev < tol && it > 1) break;
+    bool stop = false;
+    if (it > 1) {
+      const double margin = ll_err + prev_err;
+      const double diff = ll - ll_prev;
+      if (diff < tol - margin) {
+        stop = true;
+      } else if (!(diff >= tol + margin)) {  // not certain (or NaN): decide on exact values
+        if (!prev_exact) ll_prev = exact_ll(pm, x, n, nf, shift, pla, pmu, pih, half_log_2pi);
+        ll = exact_ll(em, x, n, nf, shift, la, emu, ih, half_log_2pi);
+        ll_exact = true;
+        stop = ll - ll_prev < tol;
+      }
+    }
+    if (stop) {
+      report = kReportCur;
+      break;
+    }
+    report = kReportPrev;  // the loop may end here: this iteration's values move to prev
     ll_prev = ll;
+    prev_err = ll_exact ? 0 : ll_err;
+    prev_exact = ll_exact;
+    for (uint32_t i = 0; i < em; ++i) pla[i] = la[i], pmu[i] = emu[i], pih[i] = ih[i];
+    pm = em;
+  }
+  if (report == kReportCur) {
+    r.log_likelihood = ll_exact || !exact_result ? ll : exact_ll(cm, x, n, nf, shift, la, emu, ih, half_log_2pi);
+  } else if (report == kReportPrev) {
+    r.log_likelihood = prev_exact || !exact_result ? ll_prev : exact_ll(pm, x, n, nf, shift, pla, pmu, pih, half_log_2pi);
   }
   r.iterations = it;
   for (uint32_t i = 0; i < m; ++i) {
@@ -256,6 +372,13 @@ EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uin
   }
   *m_io = m;
   return r;
+}
+
+}  // namespace
+
+EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
+                double var_floor, double tol) {
+  return em_fit_impl(x, n, comp, m_io, max_iterations, var_floor, tol, true);
 }
 
 void IntensityModel::carve(Arena& a, uint32_t max_samples) {
@@ -458,7 +581,7 @@ uint32_t IntensityModel::fit_mixture(const float* x, uint32_t n, double mean, do
       comp[i].var = std::max(bins[i].var, vfloor);
     }
   }
-  em_fit(x, n, comp, &m, s.em_iterations, vfloor);
+  em_fit_impl(x, n, comp, &m, s.em_iterations, vfloor, 1e-9, false);
   return m;
 }
 

@@ -620,3 +620,147 @@ TEST_CASE("intensity: on near noise-free data the variance floor lets the search
   MESSAGE("vertices reaching the boundary: " << with_floor << " with the floor, " << face_value << " without");
   CHECK(face_value < nv / 2);
 }
+
+namespace {
+
+// The plain EM (per-sample log-likelihood summed in sample order, the stopping
+// test on it): the reference em_fit must reproduce bit for bit, iteration
+// count included, although it sums logs by chunks and certifies the test.
+EmResult reference_em(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_it, double var_floor,
+                      double tol, std::vector<double>* diffs = nullptr) {
+  EmResult r;
+  uint32_t m = *m_io;
+  double shift = 0, lo = INFINITY, hi = -INFINITY;
+  uint32_t nf = 0;
+  for (uint32_t j = 0; j < n; ++j) {
+    if (!std::isfinite(x[j])) continue;
+    ++nf;
+    shift += x[j];
+    lo = std::min(lo, double(x[j]));
+    hi = std::max(hi, double(x[j]));
+  }
+  shift /= nf;
+  const double scale = hi > lo ? hi - lo : std::max(1.0, std::fabs(shift));
+  const double vmin = std::max(var_floor, 1e-12 * scale * scale);
+  double a[8], mu[8], v[8];
+  for (uint32_t i = 0; i < m; ++i) {
+    a[i] = comp[i].weight > 0 ? comp[i].weight : 1.0 / m;
+    mu[i] = comp[i].mean - shift;
+    v[i] = std::max(comp[i].var, vmin);
+  }
+  const double half_log_2pi = 0.5 * std::log(6.283185307179586);
+  double ll_prev = -INFINITY;
+  uint32_t it = 0;
+  while (it < max_it) {
+    ++it;
+    double la[8], ih[8], Z[8] = {}, Zx[8] = {}, Zxx[8] = {};
+    for (uint32_t i = 0; i < m; ++i) {
+      la[i] = std::log(a[i]) - 0.5 * std::log(v[i]);
+      ih[i] = 0.5 / v[i];
+    }
+    double ll = 0;
+    for (uint32_t j = 0; j < n; ++j) {
+      if (!std::isfinite(x[j])) continue;
+      const double xj = double(x[j]) - shift;
+      double l[8], mx = -INFINITY;
+      for (uint32_t i = 0; i < m; ++i) {
+        const double d = xj - mu[i];
+        l[i] = la[i] - d * d * ih[i];
+        mx = l[i] > mx ? l[i] : mx;
+      }
+      double s = 0;
+      for (uint32_t i = 0; i < m; ++i) {
+        const double e = l[i] - mx;
+        s += (l[i] = e == 0 ? 1.0 : std::exp(e));
+      }
+      ll += mx + std::log(s);
+      const double inv = 1.0 / s;
+      for (uint32_t i = 0; i < m; ++i) {
+        const double z = l[i] * inv;
+        Z[i] += z;
+        Zx[i] += z * xj;
+        Zxx[i] += z * xj * xj;
+      }
+    }
+    ll = ll / nf - half_log_2pi;
+    uint32_t k = 0;
+    for (uint32_t i = 0; i < m; ++i) {
+      if (Z[i] < 1e-4 * nf) continue;
+      a[k] = Z[i] / nf;
+      mu[k] = Zx[i] / Z[i];
+      v[k] = std::max(Zxx[i] / Z[i] - mu[k] * mu[k], vmin);
+      ++k;
+    }
+    if (k == 0) break;
+    if (k < m) {
+      double t = 0;
+      for (uint32_t i = 0; i < k; ++i) t += a[i];
+      for (uint32_t i = 0; i < k; ++i) a[i] /= t;
+      m = k;
+    }
+    r.log_likelihood = ll;
+    if (diffs && it > 1) diffs->push_back(ll - ll_prev);
+    if (ll - ll_prev < tol && it > 1) break;
+    ll_prev = ll;
+  }
+  r.iterations = it;
+  for (uint32_t i = 0; i < m; ++i) {
+    comp[i].weight = a[i];
+    comp[i].mean = mu[i] + shift;
+    comp[i].var = v[i];
+  }
+  *m_io = m;
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("EM: bit-identical to the plain per-sample log-likelihood EM (iterations, parameters, log-likelihood)") {
+  uint32_t seed = 1;
+  auto rnd = [&]() {
+    seed = seed * 1664525u + 1013904223u;
+    return double(seed >> 8) / double(1u << 24);
+  };
+  int fallbacks_possible = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const uint32_t k = 1 + trial % 5;
+    std::vector<Gaussian1> truth;
+    for (uint32_t i = 0; i < k; ++i) truth.push_back({1.0 / k, 100.0 * rnd() + 30.0 * i, 4 + 100 * rnd()});
+    const uint32_t n = 500 + uint32_t(rnd() * 20000);
+    auto x = mixture_samples(n, truth, 100 + uint64_t(trial));
+    if (trial % 7 == 3) x[n / 2] = NAN;  // non-finite samples are skipped by both
+    Gaussian1 c1[8], c2[8];
+    const uint32_t m0 = 1 + (trial * 3) % 8;
+    for (uint32_t i = 0; i < m0; ++i) c1[i] = c2[i] = {1.0 / m0, 40.0 + 150.0 * rnd(), 10 + 200 * rnd()};
+    uint32_t m1 = m0, m2 = m0;
+    const double floor = (trial % 3) ? 4.0 * rnd() : 0.0;
+    double tol = trial % 2 ? 1e-9 : 1e-7;
+    const uint32_t its = trial % 4 ? 100 : 300;
+    if (trial % 3 == 2) {
+      // A tolerance exactly at (or one ulp above) a difference of the run:
+      // the chunked sums cannot decide, the exact fallback must.
+      std::vector<double> diffs;
+      Gaussian1 c3[8];
+      for (uint32_t i = 0; i < m0; ++i) c3[i] = c1[i];
+      uint32_t m3 = m0;
+      reference_em(x.data(), n, c3, &m3, its, floor, 0.0, &diffs);
+      if (diffs.size() > 4) {
+        const double d = diffs[diffs.size() / 2];
+        tol = trial % 2 ? d : std::nextafter(d, INFINITY);
+      }
+    }
+    const EmResult r1 = em_fit(x.data(), n, c1, &m1, its, floor, tol);
+    const EmResult r2 = reference_em(x.data(), n, c2, &m2, its, floor, tol);
+    CAPTURE(trial);
+    REQUIRE(m1 == m2);
+    CHECK(r1.iterations == r2.iterations);
+    CHECK(r1.log_likelihood == r2.log_likelihood);
+    fallbacks_possible += r1.iterations < its;
+    for (uint32_t i = 0; i < m1; ++i) {
+      CHECK(c1[i].weight == c2[i].weight);
+      CHECK(c1[i].mean == c2[i].mean);
+      CHECK(c1[i].var == c2[i].var);
+    }
+  }
+  CHECK(fallbacks_possible > 10);  // most trials stop on the tolerance, not the cap
+}
