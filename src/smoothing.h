@@ -35,7 +35,8 @@
 // requested box the result equals smoothing the whole volume (zero flux at the
 // grid's faces) - exactly, for a given kappa.
 //
-// Memory: max_voxels floats for the region, plus 2 planes of the region for the
+// Memory: max_voxels floats for the region, plus 2 planes of the region (and 3
+// zero floats around them, read by the vector kernels' edge lanes) for the
 // in-place sweep (the region is stored with its longest axis slowest, so a plane
 // holds at most max_voxels^(2/3) voxels), at least 4 * kNoiseSamples floats
 // (shared with the noise estimate).
@@ -66,8 +67,19 @@ enum class RoiStatus : int {
   bad_volume,  // the view is not valid
 };
 
+// The diffusion step's kernels: 4 lanes (baseline x86-64), 8 (AVX2), 16
+// (AVX-512F). Each lane performs the scalar code's operations in its order
+// without FMA, so all give bit-identical crops; auto picks the widest the CPU
+// runs.
+enum class SmoothKernel : int { automatic = -1, lanes4 = 0, avx2 = 1, avx512 = 2 };
+
 class SmoothedRoi {
  public:
+  static bool kernel_available(SmoothKernel k);
+  static SmoothKernel best_kernel();
+  // Test hook: force a kernel (ignored when the CPU lacks it).
+  void set_kernel(SmoothKernel k) { kernel_ = k; }
+
   static constexpr uint32_t kNoiseSamples = 8192;
 
   // Floats per sweep plane for a region of at most max_voxels voxels.
@@ -163,6 +175,9 @@ class SmoothedRoi {
  private:
   void estimate_noise(const VolumeView& vol);
   void diffuse(uint32_t iterations);
+  // Copies the stored region of an integer volume (typed rows); false: the
+  // generic per-voxel copy must do it (floats, or extreme rescale factors).
+  bool copy_integer(const VolumeView& vol, double* vmin, double* vmax);
 
   float* buf_ = nullptr;
   float* scratch_ = nullptr;
@@ -174,6 +189,8 @@ class SmoothedRoi {
   int64_t glo_[3] = {0, 0, 0}, ghi_[3] = {0, 0, 0};
   int64_t grid_[3] = {0, 0, 0};
   int64_t st_[3] = {0, 0, 0};  // buffer stride of each index axis
+  int64_t ext_[3] = {0, 0, 0}; // stored region's extent per index axis
+  SmoothKernel kernel_ = SmoothKernel::automatic;
   int ax_[3] = {0, 1, 2};      // storage order, fastest first
   int64_t needed_ = 0;
   double A_[12] = {}, Ainv_[12] = {};
