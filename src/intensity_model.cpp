@@ -48,43 +48,62 @@ struct LogLik {
 template <uint32_t M, bool EXACT>
 void e_step(const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih, double* Z,
             double* Zx, double* Zxx, LogLik* ll_io) {
-  double laa[M], mua[M], iha[M], z0[M], z1[M], z2[M];
-  for (uint32_t i = 0; i < M; ++i) laa[i] = la[i], mua[i] = mu[i], iha[i] = ih[i], z0[i] = Z[i], z1[i] = Zx[i], z2[i] = Zxx[i];
+  // Blocks of kBlock samples in three passes: exponents, then the exp calls
+  // alone (a call clobbers every vector register, so the sums are kept out of
+  // that loop), then the sums in sample order. Per sample the same operations
+  // as one fused loop.
+  constexpr uint32_t kBlock = 128;
+  double ev[kBlock * M], mxv[kBlock], xv[kBlock];
+  double z0[M], z1[M], z2[M];
+  for (uint32_t i = 0; i < M; ++i) z0[i] = Z[i], z1[i] = Zx[i], z2[i] = Zxx[i];
   double ll = 0, smx = 0, amx = 0, lsum = 0, prod = 1;
   uint32_t in_chunk = 0;
-  for (uint32_t j = 0; j < n; ++j) {
-    if (!std::isfinite(x[j])) continue;
-    const double xj = double(x[j]) - shift;
-    double l[M], mx = -INFINITY;
-    for (uint32_t i = 0; i < M; ++i) {
-      const double d = xj - mua[i];
-      l[i] = laa[i] - d * d * iha[i];
-      mx = l[i] > mx ? l[i] : mx;
+  for (uint32_t j0 = 0; j0 < n; j0 += kBlock) {
+    const uint32_t j1 = n - j0 < kBlock ? n : j0 + kBlock;
+    uint32_t nb = 0;
+    for (uint32_t j = j0; j < j1; ++j) {
+      if (!std::isfinite(x[j])) continue;
+      const double xj = double(x[j]) - shift;
+      double l[M], mx = -INFINITY;
+      for (uint32_t i = 0; i < M; ++i) {
+        const double d = xj - mu[i];
+        l[i] = la[i] - d * d * ih[i];
+        mx = l[i] > mx ? l[i] : mx;
+      }
+      for (uint32_t i = 0; i < M; ++i) ev[nb * M + i] = l[i] - mx;
+      mxv[nb] = mx;
+      xv[nb] = xj;
+      ++nb;
     }
     // exp(0) is exactly 1: the largest term (at least one) needs no call.
-    double s = 0;
-    for (uint32_t i = 0; i < M; ++i) {
-      const double e = l[i] - mx;
-      s += (l[i] = e == 0 ? 1.0 : std::exp(e));
+    for (uint32_t t = 0; t < nb * M; ++t) {
+      const double e = ev[t];
+      ev[t] = e == 0 ? 1.0 : std::exp(e);
     }
-    if (EXACT) {
-      ll += mx + std::log(s);
-    } else {
-      smx += mx;
-      amx += std::fabs(mx);
-      prod *= s;
-      if (++in_chunk == kLogChunk) {
-        lsum += std::log(prod);
-        prod = 1;
-        in_chunk = 0;
+    for (uint32_t b = 0; b < nb; ++b) {
+      const double* l = ev + b * M;
+      const double mx = mxv[b], xj = xv[b];
+      double s = 0;
+      for (uint32_t i = 0; i < M; ++i) s += l[i];
+      if (EXACT) {
+        ll += mx + std::log(s);
+      } else {
+        smx += mx;
+        amx += std::fabs(mx);
+        prod *= s;
+        if (++in_chunk == kLogChunk) {
+          lsum += std::log(prod);
+          prod = 1;
+          in_chunk = 0;
+        }
       }
-    }
-    const double inv = 1.0 / s;
-    for (uint32_t i = 0; i < M; ++i) {
-      const double z = l[i] * inv;  // z_ij, eq. 5.2.4
-      z0[i] += z;
-      z1[i] += z * xj;
-      z2[i] += z * xj * xj;
+      const double inv = 1.0 / s;
+      for (uint32_t i = 0; i < M; ++i) {
+        const double z = l[i] * inv;  // z_ij, eq. 5.2.4
+        z0[i] += z;
+        z1[i] += z * xj;
+        z2[i] += z * xj * xj;
+      }
     }
   }
   for (uint32_t i = 0; i < M; ++i) Z[i] = z0[i], Zx[i] = z1[i], Zxx[i] = z2[i];
