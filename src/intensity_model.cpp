@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "exp_block.h"
 #include "smoothing.h"
 
 namespace ffseg {
@@ -65,25 +66,25 @@ void e_step(const float* x, uint32_t n, double shift, const double* la, const do
       if (!std::isfinite(x[j])) continue;
       const double xj = double(x[j]) - shift;
       double l[M], mx = -INFINITY;
+#pragma GCC unroll 8
       for (uint32_t i = 0; i < M; ++i) {
         const double d = xj - mu[i];
         l[i] = la[i] - d * d * ih[i];
         mx = l[i] > mx ? l[i] : mx;
       }
+#pragma GCC unroll 8
       for (uint32_t i = 0; i < M; ++i) ev[nb * M + i] = l[i] - mx;
       mxv[nb] = mx;
       xv[nb] = xj;
       ++nb;
     }
-    // exp(0) is exactly 1: the largest term (at least one) needs no call.
-    for (uint32_t t = 0; t < nb * M; ++t) {
-      const double e = ev[t];
-      ev[t] = e == 0 ? 1.0 : std::exp(e);
-    }
+    // std::exp of every exponent (exp(0) = 1 for the largest term).
+    exp_block(ev, nb * M);
     for (uint32_t b = 0; b < nb; ++b) {
       const double* l = ev + b * M;
       const double mx = mxv[b], xj = xv[b];
       double s = 0;
+#pragma GCC unroll 8
       for (uint32_t i = 0; i < M; ++i) s += l[i];
       if (EXACT) {
         ll += mx + std::log(s);
@@ -98,6 +99,7 @@ void e_step(const float* x, uint32_t n, double shift, const double* la, const do
         }
       }
       const double inv = 1.0 / s;
+#pragma GCC unroll 8
       for (uint32_t i = 0; i < M; ++i) {
         const double z = l[i] * inv;  // z_ij, eq. 5.2.4
         z0[i] += z;

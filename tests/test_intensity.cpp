@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "arena.h"
+#include "exp_block.h"
 #include "intensity_model.h"
 #include "intensity_search.h"
 #include "smoothing.h"
@@ -867,5 +868,58 @@ TEST_CASE("smoothing: every diffusion kernel (4, 8, 16 lanes) equals a plain sca
     // A negative slope: the typed copy's value range comes from the other raw extreme.
     REQUIRE(v.finish(VoxelType::I16, -0.5, 100.0));
     check_kernels_bitwise(v, 25.0);
+  }
+}
+
+TEST_CASE("exp_block returns std::exp bit for bit (vector kernel certified lanes, fallback for the rest)") {
+  Rng rng(77);
+  std::vector<double> x;
+  const double specials[] = {0.0, -0.0, 1e-300, -1e-300, 4.9e-324, -4.9e-324, 1.0, -1.0, -669.9, -670.0, -700.0,
+                             -708.5, -745.0, -745.2, -800.0, 708.9, 709.0, 709.7, 710.0, INFINITY, -INFINITY, NAN};
+  for (double v : specials) x.push_back(v);
+  const double c = 0.6931471805599453 / 256.0;
+  for (int k = -250000; k <= 2000; k += 7) {  // near multiples of ln2/256: the reduction's hard cases
+    const double b = k * c;
+    x.push_back(b);
+    x.push_back(std::nextafter(b, -INFINITY));
+    x.push_back(b + 1e-12 * (rng.uniform() - 0.5));
+  }
+  const struct {
+    double lo, hi;
+    int count;
+  } ranges[] = {{-670, 0, 4000000}, {-40, 0, 4000000}, {-1e-3, 1e-3, 1000000}, {-1e-12, 1e-12, 200000},
+                {0, 709, 1000000},  {-2, 2, 2000000}};
+  for (const auto& r : ranges)
+    for (int i = 0; i < r.count; ++i) x.push_back(r.lo + (r.hi - r.lo) * rng.uniform());
+  std::vector<double> y = x, k = x;
+  // Odd lengths exercise the tail.
+  exp_block(y.data(), uint32_t(y.size()));
+  exp_block(y.data() + 3, 0);
+  size_t bad = 0;
+  for (size_t i = 0; i < x.size(); ++i) {
+    const double e = std::exp(x[i]);
+    bad += std::memcmp(&e, &y[i], sizeof e) != 0 && !(std::isnan(e) && std::isnan(y[i]));
+  }
+  CHECK(bad == 0);
+  for (uint32_t n : {1u, 5u, 7u, 9u, 15u}) {
+    std::vector<double> z(x.begin() + 1000, x.begin() + 1000 + n);
+    exp_block(z.data(), n);
+    for (uint32_t i = 0; i < n; ++i) CHECK(z[i] == std::exp(x[1000 + i]));
+  }
+  if (exp_block_vectorised()) {
+    // Most lanes are certified by the kernel itself (the others call std::exp).
+    exp_block_kernel_only(k.data(), uint32_t(k.size()));
+    size_t uncertified = 0, wrong = 0;
+    for (size_t i = 0; i < x.size(); ++i) {
+      if (std::isnan(k[i])) {
+        ++uncertified;
+        continue;
+      }
+      const double e = std::exp(x[i]);
+      wrong += std::memcmp(&e, &k[i], sizeof e) != 0;
+    }
+    CHECK(wrong == 0);
+    CHECK(double(uncertified) < 0.08 * double(x.size()));
+    MESSAGE("exp_block: " << x.size() << " arguments, " << uncertified << " left to std::exp by the kernel");
   }
 }
