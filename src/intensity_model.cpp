@@ -669,7 +669,22 @@ void IntensityModel::normalise_and_tabulate(const LutSpec& lut) {
   }
   lut_v0_ = lut.slope * raw0 + lut.intercept;
   lut_inv_step_ = 1.0 / lut.slope;
-  for (uint32_t i = 0; i < count; ++i) lut_[i] = float(g_direct(lut.slope * (raw0 + i) + lut.intercept));
+  // Where every component's and competitor's exponent -d^2 / (2 var) is below
+  // -746, each exp is 0 (e^-746 < 2^-1076, under half the least subnormal), so
+  // g_direct is 0 there: only values within sqrt(1492 var) (plus a relative
+  // margin for rounding) of some mean are evaluated.
+  double vlo = INFINITY, vhi = -INFINITY;
+  auto widen = [&](const Gaussian1& c) {
+    const double w = std::sqrt(1492.0 * c.var) * (1 + 1e-6) + 1e-6 * std::fabs(c.mean) + 1e-300;
+    vlo = std::min(vlo, c.mean - w);
+    vhi = std::max(vhi, c.mean + w);
+  };
+  for (uint32_t i = 0; i < m_; ++i) widen(comp_[i]);
+  for (uint32_t c = 0; c < sm_; ++c) widen(scene_[c]);
+  for (uint32_t i = 0; i < count; ++i) {
+    const double v = lut.slope * (raw0 + i) + lut.intercept;
+    lut_[i] = (v >= vlo && v <= vhi) || !(std::isfinite(vlo) && std::isfinite(vhi)) ? float(g_direct(v)) : 0.0f;
+  }
   lut_n_ = count;
 }
 

@@ -923,3 +923,30 @@ TEST_CASE("exp_block returns std::exp bit for bit (vector kernel certified lanes
     MESSAGE("exp_block: " << x.size() << " arguments, " << uncertified << " left to std::exp by the kernel");
   }
 }
+
+TEST_CASE("intensity: the i16 table equals float(g_direct) at every representable value, zeros included") {
+  // Narrow, far-apart components: most of the 65536 entries lie where every
+  // exp underflows to 0 (the table skips evaluating those).
+  IntensityModel model;
+  Carved mem([&](Arena& a) { model.carve(a, 16); });
+  IntensityModelSettings s;
+  auto x = mixture_samples(6000, {{0.5, -300, 4}, {0.3, 0, 9}, {0.2, 400, 1}}, 41);
+  for (double slope : {0.5, 1.0, -2.0}) {
+    LutSpec lut;
+    lut.type = VoxelType::I16;
+    lut.slope = slope;
+    lut.intercept = -1024;
+    REQUIRE(model.fit_samples(x.data(), 6000, 0.0, s, lut) == ModelStatus::ok);
+    REQUIRE(model.has_lut());
+    size_t bad = 0, zeros = 0;
+    for (int raw = -32768; raw <= 32767; ++raw) {
+      const double v = slope * raw - 1024;
+      const float direct = float(model.g_direct(v));
+      zeros += direct == 0.0f;
+      bad += float(model.g(v)) != direct;
+    }
+    CAPTURE(slope);
+    CHECK(bad == 0);
+    CHECK(zeros > 30000);
+  }
+}
