@@ -2,11 +2,12 @@
 //
 // The E-step of EM (intensity_model.cpp) spends most of its time in exp. A
 // vector kernel (AVX-512F with FMA, chosen at run time) evaluates exp(x) in
-// double-double arithmetic (relative error below 2^-68): reduction
-// x = k ln2/256 + r with a three-part ln2/256, a degree-6 polynomial for
-// exp(r) - 1 - r on |r| <= ln2/512, a table of 2^(j/256) as double-doubles
-// (built once, Taylor series in double-double), then y = hi + lo with
-// |lo| <= ulp(hi)/2, so hi is exp(x) correctly rounded.
+// double-double arithmetic (relative error below 2^-63): reduction
+// x = k ln2/16 + r with a three-part ln2/16, a degree-9 polynomial for
+// exp(r) - 1 - r on |r| <= ln2/32, a table of 2^(j/16) as double-doubles
+// (built once, Taylor series in double-double; read with register permutes),
+// then y = hi + lo with |lo| <= ulp(hi)/2, so hi is exp(x) correctly rounded
+// unless x lies within the error bound of a rounding midpoint.
 //
 // Certification: hi is taken only when |lo| <= 0.48 ulp on its side, i.e. the
 // exact value lies at least 0.02 ulp away from the midpoint between hi and

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 #include "exp_block.h"
 #include "smoothing.h"
@@ -46,15 +47,37 @@ struct LogLik {
   double log_s = 0;   // sum log(s) (chunked mode only)
 };
 
+// Eight doubles; the kernels below are instantiated for the baseline target
+// (GCC splits them into SSE2 pairs) and for AVX-512F. Helpers taking these
+// are always inlined into the kernel, so no call crosses the ABI difference
+// GCC warns about.
+#pragma GCC diagnostic ignored "-Wpsabi"
+typedef double D8 __attribute__((vector_size(64)));
+typedef int64_t I8 __attribute__((vector_size(64)));
+
+__attribute__((always_inline)) inline D8 splat8(double v) { return D8{v, v, v, v, v, v, v, v}; }
+__attribute__((always_inline)) inline D8 load8(const double* p) {
+  D8 r;
+  std::memcpy(&r, p, sizeof r);
+  return r;
+}
+__attribute__((always_inline)) inline void store8(double* p, D8 v) { std::memcpy(p, &v, sizeof v); }
+
+// E-step in blocks of kBlock samples: the finite samples are gathered (shifted
+// to double), then per 8 samples the exponents l_i - max_i l_i (vector), the
+// exps (exp_block), s = sum_i exp in component order, z_i = exp_i / s,
+// z_i x, z_i x x (vector), and last the sums and the log-likelihood in sample
+// order (scalar). Per sample these are the operations of the plain loop
+//   d = x - mu_i; l_i = la_i - d d ih_i; mx = max; e_i = exp(l_i - mx);
+//   s = sum e_i; ll += mx + log(s); z = e_i (1 / s); Z_i += z; Zx_i += z x; Zxx_i += z x x,
+// each in IEEE double without contraction, so the sums are bit-identical.
 template <uint32_t M, bool EXACT>
-void e_step(const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih, double* Z,
-            double* Zx, double* Zxx, LogLik* ll_io) {
-  // Blocks of kBlock samples in three passes: exponents, then the exp calls
-  // alone (a call clobbers every vector register, so the sums are kept out of
-  // that loop), then the sums in sample order. Per sample the same operations
-  // as one fused loop.
+__attribute__((always_inline)) inline void e_step_body(const float* x, uint32_t n, double shift, const double* la,
+                                                       const double* mu, const double* ih, double* Z, double* Zx,
+                                                       double* Zxx, LogLik* ll_io) {
   constexpr uint32_t kBlock = 128;
-  double ev[kBlock * M], mxv[kBlock], xv[kBlock];
+  alignas(64) double xv[kBlock], mxv[kBlock], sv[kBlock];
+  alignas(64) double ev[M][kBlock], zx[M][kBlock], zxx[M][kBlock];
   double z0[M], z1[M], z2[M];
   for (uint32_t i = 0; i < M; ++i) z0[i] = Z[i], z1[i] = Zx[i], z2[i] = Zxx[i];
   double ll = 0, smx = 0, amx = 0, lsum = 0, prod = 1;
@@ -62,49 +85,66 @@ void e_step(const float* x, uint32_t n, double shift, const double* la, const do
   for (uint32_t j0 = 0; j0 < n; j0 += kBlock) {
     const uint32_t j1 = n - j0 < kBlock ? n : j0 + kBlock;
     uint32_t nb = 0;
-    for (uint32_t j = j0; j < j1; ++j) {
-      if (!std::isfinite(x[j])) continue;
-      const double xj = double(x[j]) - shift;
-      double l[M], mx = -INFINITY;
+    for (uint32_t j = j0; j < j1; ++j)
+      if (std::isfinite(x[j])) xv[nb++] = double(x[j]) - shift;
+    if (nb == 0) continue;
+    const uint32_t nv = (nb + 7) & ~7u;
+    for (uint32_t b = nb; b < nv; ++b) xv[b] = 0;  // padding lanes, never summed
+    for (uint32_t b = 0; b < nv; b += 8) {
+      const D8 xj = load8(xv + b);
+      D8 l[M], mx = splat8(-INFINITY);
 #pragma GCC unroll 8
       for (uint32_t i = 0; i < M; ++i) {
-        const double d = xj - mu[i];
-        l[i] = la[i] - d * d * ih[i];
+        const D8 d = xj - splat8(mu[i]);
+        l[i] = splat8(la[i]) - d * d * splat8(ih[i]);
         mx = l[i] > mx ? l[i] : mx;
       }
 #pragma GCC unroll 8
-      for (uint32_t i = 0; i < M; ++i) ev[nb * M + i] = l[i] - mx;
-      mxv[nb] = mx;
-      xv[nb] = xj;
-      ++nb;
+      for (uint32_t i = 0; i < M; ++i) store8(ev[i] + b, l[i] - mx);
+      store8(mxv + b, mx);
     }
     // std::exp of every exponent (exp(0) = 1 for the largest term).
-    exp_block(ev, nb * M);
-    for (uint32_t b = 0; b < nb; ++b) {
-      const double* l = ev + b * M;
-      const double mx = mxv[b], xj = xv[b];
-      double s = 0;
+    for (uint32_t i = 0; i < M; ++i) exp_block(ev[i], nb);
+    for (uint32_t i = 0; i < M; ++i)
+      for (uint32_t b = nb; b < nv; ++b) ev[i][b] = 1;  // padding lanes: s stays finite
+    for (uint32_t b = 0; b < nv; b += 8) {
+      const D8 xj = load8(xv + b);
+      D8 e[M], s = splat8(0.0);
 #pragma GCC unroll 8
-      for (uint32_t i = 0; i < M; ++i) s += l[i];
+      for (uint32_t i = 0; i < M; ++i) {
+        e[i] = load8(ev[i] + b);
+        s += e[i];
+      }
+      store8(sv + b, s);
+      const D8 inv = splat8(1.0) / s;
+#pragma GCC unroll 8
+      for (uint32_t i = 0; i < M; ++i) {
+        const D8 z = e[i] * inv;  // z_ij, eq. 5.2.4
+        const D8 zxj = z * xj;
+        store8(ev[i] + b, z);
+        store8(zx[i] + b, zxj);
+        store8(zxx[i] + b, zxj * xj);
+      }
+    }
+    for (uint32_t b = 0; b < nb; ++b) {
+      const double mx = mxv[b], sb = sv[b];
       if (EXACT) {
-        ll += mx + std::log(s);
+        ll += mx + std::log(sb);
       } else {
         smx += mx;
         amx += std::fabs(mx);
-        prod *= s;
+        prod *= sb;
         if (++in_chunk == kLogChunk) {
           lsum += std::log(prod);
           prod = 1;
           in_chunk = 0;
         }
       }
-      const double inv = 1.0 / s;
 #pragma GCC unroll 8
       for (uint32_t i = 0; i < M; ++i) {
-        const double z = l[i] * inv;  // z_ij, eq. 5.2.4
-        z0[i] += z;
-        z1[i] += z * xj;
-        z2[i] += z * xj * xj;
+        z0[i] += ev[i][b];
+        z1[i] += zx[i][b];
+        z2[i] += zxx[i][b];
       }
     }
   }
@@ -120,19 +160,41 @@ void e_step(const float* x, uint32_t n, double shift, const double* la, const do
 }
 
 template <bool EXACT>
-void e_step_m(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
-              const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
+__attribute__((always_inline)) inline void e_step_switch(uint32_t m, const float* x, uint32_t n, double shift,
+                                                         const double* la, const double* mu, const double* ih,
+                                                         double* Z, double* Zx, double* Zxx, LogLik* ll) {
   static_assert(IntensityModel::kMaxComponents == 8, "one e_step instance per component count");
   switch (m) {
-    case 1: e_step<1, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 2: e_step<2, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 3: e_step<3, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 4: e_step<4, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 5: e_step<5, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 6: e_step<6, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 7: e_step<7, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    default: e_step<8, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 1: e_step_body<1, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 2: e_step_body<2, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 3: e_step_body<3, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 4: e_step_body<4, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 5: e_step_body<5, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 6: e_step_body<6, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 7: e_step_body<7, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    default: e_step_body<8, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
   }
+}
+
+template <bool EXACT>
+void e_step_base(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
+                 const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
+  e_step_switch<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+}
+
+template <bool EXACT>
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) void e_step_avx512(
+    uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih,
+    double* Z, double* Zx, double* Zxx, LogLik* ll) {
+  e_step_switch<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+}
+
+template <bool EXACT>
+void e_step_m(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
+              const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
+  static const bool wide = __builtin_cpu_supports("avx512f");
+  if (wide) e_step_avx512<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  else e_step_base<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
 }
 
 void e_step_dispatch(bool exact, uint32_t m, const float* x, uint32_t n, double shift, const double* la,
