@@ -97,11 +97,17 @@ void copy_rows(const unsigned char* origin, const int64_t* strides, const int64_
 
 }  // namespace
 
-bool SmoothedRoi::copy_integer(const VolumeView& vol, double* vmin, double* vmax) {
-  const double slope = vol.slope(), icpt = vol.intercept();
+bool SmoothedRoi::integer_copy_applies(const VolumeView& vol) {
   // Integer types up to 32 bits give finite values; the generic copy's clamp
   // to +-1e30 is a no-op when every representable value stays within it.
-  if (!(std::fabs(slope) * 2147483648.0 + std::fabs(icpt) < 1e29)) return false;
+  const VoxelType t = vol.type();
+  const bool integer = t == VoxelType::U8 || t == VoxelType::I16 || t == VoxelType::U16 || t == VoxelType::I32;
+  return integer && std::fabs(vol.slope()) * 2147483648.0 + std::fabs(vol.intercept()) < 1e29;
+}
+
+bool SmoothedRoi::copy_integer(const VolumeView& vol, double* vmin, double* vmax) {
+  const double slope = vol.slope(), icpt = vol.intercept();
+  if (!integer_copy_applies(vol)) return false;
   double rlo = 0, rhi = 0;
   switch (vol.type()) {
     case VoxelType::U8: {
@@ -196,7 +202,11 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
   }
   for (int a = 0; a < 3; ++a) h_[a] = vol.spacing()[a];
 
-  estimate_noise(vol);
+  if (s.statistics || !(s.kappa > 0) || !integer_copy_applies(vol)) {
+    estimate_noise(vol);
+  } else {  // not needed: kappa is given and no voxel can be non-finite
+    sigma_n_ = p_lo_ = p_hi_ = 0;
+  }
   // Copy the raw region in.
   double vmin = INFINITY, vmax = -INFINITY;
   if (!copy_integer(vol, &vmin, &vmax)) {

@@ -57,6 +57,10 @@ namespace ffseg {
 struct SmoothingSettings {
   uint32_t iterations = 5;  // explicit steps of dt each (also the crop margin in voxels)
   double kappa = 0;         // intensity per mm; <= 0: derived from the noise estimate
+  // false: with kappa > 0 on an integer volume, skip the statistics of the
+  // requested box (noise_sigma(), robust_low/high() then read 0); the
+  // smoothed values do not depend on them there.
+  bool statistics = true;
 };
 
 enum class RoiStatus : int {
@@ -178,6 +182,7 @@ class SmoothedRoi {
   // Copies the stored region of an integer volume (typed rows); false: the
   // generic per-voxel copy must do it (floats, or extreme rescale factors).
   bool copy_integer(const VolumeView& vol, double* vmin, double* vmax);
+  static bool integer_copy_applies(const VolumeView& vol);
 
   float* buf_ = nullptr;
   float* scratch_ = nullptr;

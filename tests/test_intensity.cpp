@@ -950,3 +950,30 @@ TEST_CASE("intensity: the i16 table equals float(g_direct) at every representabl
     CHECK(zeros > 30000);
   }
 }
+
+TEST_CASE("smoothing: skipping the box statistics (kappa given, integer volume) leaves the crop unchanged") {
+  Rng rng(9);
+  TestVolume<int16_t> v(40, 30, 20, 0.8, 0.8, 2.5);
+  for (auto& x : v.data) x = int16_t(1000 + 80.0 * (rng.uniform() > 0.5) + 15.0 * rng.normal());
+  REQUIRE(v.finish(VoxelType::I16, 1.0, -1024.0));
+  SmoothedRoi a, b;
+  Carved m1([&](Arena& ar) { a.carve(ar, 40 * 30 * 20); });
+  Carved m2([&](Arena& ar) { b.carve(ar, 40 * 30 * 20); });
+  SmoothingSettings s;
+  s.kappa = 30;
+  const int64_t lo[3] = {5, 4, 3}, hi[3] = {33, 25, 15};
+  REQUIRE(a.compute(v.view, lo, hi, s) == RoiStatus::ok);
+  s.statistics = false;
+  REQUIRE(b.compute(v.view, lo, hi, s) == RoiStatus::ok);
+  CHECK(a.noise_sigma() > 0);
+  CHECK(b.noise_sigma() == 0);
+  size_t bad = 0;
+  for (int64_t k = b.data_lo()[2]; k < b.data_hi()[2]; ++k)
+    for (int64_t j = b.data_lo()[1]; j < b.data_hi()[1]; ++j)
+      for (int64_t i = b.data_lo()[0]; i < b.data_hi()[0]; ++i) bad += a.at(i, j, k) != b.at(i, j, k);
+  CHECK(bad == 0);
+  // Without a given kappa the statistics are still computed.
+  s.kappa = 0;
+  REQUIRE(b.compute(v.view, lo, hi, s) == RoiStatus::ok);
+  CHECK(b.noise_sigma() > 0);
+}
