@@ -193,6 +193,38 @@ __attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void exp_blo
   }
 }
 
+// exp of the non-zero values only (exp(0) = 1 needs no evaluation): they are
+// packed by register compress, evaluated, and expanded back.
+__attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void exp_block_nonzero_avx512(double* v,
+                                                                                               uint32_t n) {
+  constexpr uint32_t kChunk = 512;
+  double packed[kChunk + 8];
+  uint8_t nzm[kChunk / 8];
+  const __m512d one = _mm512_set1_pd(1.0);
+  uint32_t t = 0;
+  while (t + 8 <= n) {
+    uint32_t nvec = (n - t) / 8;
+    if (nvec > kChunk / 8) nvec = kChunk / 8;
+    uint32_t np = 0;
+    for (uint32_t q = 0; q < nvec; ++q) {
+      const __m512d x = _mm512_loadu_pd(v + t + 8 * q);
+      const __mmask8 nz = _mm512_cmp_pd_mask(x, _mm512_setzero_pd(), _CMP_NEQ_UQ);
+      _mm512_storeu_pd(packed + np, _mm512_maskz_compress_pd(nz, x));
+      np += uint32_t(__builtin_popcount(nz));
+      nzm[q] = nz;
+    }
+    exp_block_avx512<true>(packed, np);
+    uint32_t pos = 0;
+    for (uint32_t q = 0; q < nvec; ++q) {
+      const __mmask8 nz = nzm[q];
+      _mm512_storeu_pd(v + t + 8 * q, _mm512_mask_expand_pd(one, nz, _mm512_loadu_pd(packed + pos)));
+      pos += uint32_t(__builtin_popcount(nz));
+    }
+    t += 8 * nvec;
+  }
+  for (; t < n; ++t) v[t] = v[t] == 0 ? 1.0 : std::exp(v[t]);
+}
+
 bool have_avx512() {
   static const bool h = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("fma");
   return h;
@@ -218,6 +250,16 @@ void exp_block(double* v, uint32_t n) {
   }
 #endif
   for (uint32_t t = 0; t < n; ++t) v[t] = std::exp(v[t]);
+}
+
+void exp_block_nonzero(double* v, uint32_t n) {
+#ifdef FFSEG_EXP_VECTOR
+  if (have_avx512()) {
+    exp_block_nonzero_avx512(v, n);
+    return;
+  }
+#endif
+  for (uint32_t t = 0; t < n; ++t) v[t] = v[t] == 0 ? 1.0 : std::exp(v[t]);
 }
 
 void exp_block_kernel_only(double* v, uint32_t n) {

@@ -24,6 +24,8 @@ namespace ffseg {
 
 // v[t] = std::exp(v[t]) for t < n.
 void exp_block(double* v, uint32_t n);
+// The same, with the zeros (exp(0) = 1) packed out before evaluation.
+void exp_block_nonzero(double* v, uint32_t n);
 
 // Test hooks: whether the vector kernel runs here, and the kernel alone on v
 // (lanes it cannot certify are set to NaN, so a test can count them).

@@ -103,8 +103,12 @@ __attribute__((always_inline)) inline void e_step_body(const float* x, uint32_t 
       for (uint32_t i = 0; i < M; ++i) store8(ev[i] + b, l[i] - mx);
       store8(mxv + b, mx);
     }
-    // std::exp of every exponent (exp(0) = 1 for the largest term).
-    for (uint32_t i = 0; i < M; ++i) exp_block(ev[i], nb);
+    // std::exp of every exponent; the largest term's is exp(0) = 1, packed out.
+    // One call over the rows (kBlock apart); the gaps of a short last block
+    // are zeroed first (packed out too), the padding lanes' values are finite.
+    for (uint32_t i = 0; i + 1 < M; ++i)
+      for (uint32_t b = nv; b < kBlock; ++b) ev[i][b] = 0;
+    exp_block_nonzero(ev[0], (M - 1) * kBlock + nv);
     for (uint32_t i = 0; i < M; ++i)
       for (uint32_t b = nb; b < nv; ++b) ev[i][b] = 1;  // padding lanes: s stays finite
     for (uint32_t b = 0; b < nv; b += 8) {

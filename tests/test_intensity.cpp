@@ -901,6 +901,19 @@ TEST_CASE("exp_block returns std::exp bit for bit (vector kernel certified lanes
     bad += std::memcmp(&e, &y[i], sizeof e) != 0 && !(std::isnan(e) && std::isnan(y[i]));
   }
   CHECK(bad == 0);
+  {
+    // Zeros (and -0) packed out: exp_block_nonzero.
+    std::vector<double> w(x.begin(), x.begin() + 3000001);
+    for (size_t i = 0; i < w.size(); i += 3) w[i] = (i % 2) ? 0.0 : -0.0;
+    std::vector<double> wy = w;
+    exp_block_nonzero(wy.data(), uint32_t(wy.size()));
+    size_t badz = 0;
+    for (size_t i = 0; i < w.size(); ++i) {
+      const double e = std::exp(w[i]);
+      badz += std::memcmp(&e, &wy[i], sizeof e) != 0 && !(std::isnan(e) && std::isnan(wy[i]));
+    }
+    CHECK(badz == 0);
+  }
   for (uint32_t n : {1u, 5u, 7u, 9u, 15u}) {
     std::vector<double> z(x.begin() + 1000, x.begin() + 1000 + n);
     exp_block(z.data(), n);
