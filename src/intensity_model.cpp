@@ -4,6 +4,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+// GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own
+// _mm512_undefined_* placeholders (GCC bug 105593).
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include <immintrin.h>
 
 #include "exp_block.h"
 #include "smoothing.h"
@@ -241,6 +245,80 @@ uint32_t mixing_stride(uint32_t n) {
   return s < n ? s : 1;
 }
 
+namespace {
+
+// One pass of Algorithm 2's visits with at most 8 clusters held in vector
+// lanes (AVX-512F): from visit t0 on, until the end or until a 9th cluster
+// would open (that visit is left undone, idx still on it). Per visit the same
+// decisions and arithmetic as the scalar loop in adaptive_binning: d_k =
+// |p - c_k| per lane (closed lanes c = +inf), the first lane of the minimum,
+// and the member sums updated in lane `best` only (masked adds, so each
+// cluster's sums are formed in visiting order as before).
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) uint32_t binning_visits_avx512(
+    const float* x, uint32_t n, uint32_t stride, uint64_t* idx_io, uint32_t t0, double R, double S, double* c,
+    uint32_t* cnt, double* sum, double* sum2, uint32_t* K_io) {
+  uint32_t K = *K_io;
+  const __mmask8 live = __mmask8((1u << K) - 1u);
+  __m512d cv = _mm512_mask_loadu_pd(_mm512_set1_pd(INFINITY), live, c);
+  __m512d sv = _mm512_mask_loadu_pd(_mm512_setzero_pd(), live, sum);
+  __m512d s2v = _mm512_mask_loadu_pd(_mm512_setzero_pd(), live, sum2);
+  int64_t cn[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  for (uint32_t k = 0; k < K; ++k) cn[k] = cnt[k];
+  __m512i nv = _mm512_loadu_si512(cn);
+  const __m512i one = _mm512_set1_epi64(1);
+  const __m512i abs_bits = _mm512_set1_epi64(0x7fffffffffffffffLL);
+  uint64_t idx = *idx_io;
+  uint32_t t = t0;
+  for (; t < n; ++t) {
+    const double p = x[idx];
+    uint64_t next = idx + stride;
+    if (next >= n) next -= n;
+    if (!std::isfinite(p)) {
+      idx = next;
+      continue;
+    }
+    const __m512d ev = _mm512_sub_pd(_mm512_set1_pd(p), cv);  // p - c_k
+    const __m512d dv = _mm512_castsi512_pd(_mm512_and_si512(_mm512_castpd_si512(ev), abs_bits));
+    double d = INFINITY;
+    uint32_t best = 0;
+    if (K > 0) {
+      d = _mm512_reduce_min_pd(dv);
+      best = uint32_t(__builtin_ctz(_mm512_cmp_pd_mask(dv, _mm512_set1_pd(d), _CMP_EQ_OQ)));
+    }
+    if (K == 0 || d >= S) {
+      if (K == 8) break;
+      const __mmask8 m = __mmask8(1u << K);
+      cv = _mm512_mask_mov_pd(cv, m, _mm512_set1_pd(p));
+      sv = _mm512_mask_mov_pd(sv, m, _mm512_setzero_pd());
+      s2v = _mm512_mask_mov_pd(s2v, m, _mm512_setzero_pd());
+      nv = _mm512_mask_mov_epi64(nv, m, one);
+      ++K;
+    } else if (d <= R) {
+      const __mmask8 m = __mmask8(1u << best);
+      sv = _mm512_mask_add_pd(sv, m, sv, ev);
+      s2v = _mm512_mask_add_pd(s2v, m, s2v, _mm512_mul_pd(ev, ev));
+      nv = _mm512_mask_add_epi64(nv, m, nv, one);
+    }
+    idx = next;
+  }
+  const __mmask8 out = __mmask8((1u << K) - 1u);
+  _mm512_mask_storeu_pd(c, out, cv);
+  _mm512_mask_storeu_pd(sum, out, sv);
+  _mm512_mask_storeu_pd(sum2, out, s2v);
+  _mm512_storeu_si512(cn, nv);
+  for (uint32_t k = 0; k < K; ++k) cnt[k] = uint32_t(cn[k]);
+  *K_io = K;
+  *idx_io = idx;
+  return t;
+}
+
+bool binning_vectorised() {
+  static const bool v = __builtin_cpu_supports("avx512f");
+  return v;
+}
+
+}  // namespace
+
 uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, Bin* bins, uint32_t max_bins,
                           uint32_t stride) {
   if (n == 0) return 0;
@@ -257,7 +335,10 @@ uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, 
   for (uint32_t pass = 0; pass < (s.max_passes ? s.max_passes : 1); ++pass) {
     for (uint32_t k = 0; k < K; ++k) cnt[k] = 0, sum[k] = 0, sum2[k] = 0;
     uint64_t idx = 0;
-    for (uint32_t t = 0; t < n; ++t) {
+    uint32_t t = 0;
+    if (K <= 8 && binning_vectorised())
+      t = binning_visits_avx512(x, n, stride, &idx, 0, R, S, c, cnt, sum, sum2, &K);
+    for (; t < n; ++t) {
       const double p = x[idx];
       idx += stride;
       if (idx >= n) idx -= n;
