@@ -6,9 +6,20 @@
 #if defined(__x86_64__) && defined(__GNUC__)
 // GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own
 // _mm512_undefined_* placeholders (GCC bug 105593).
+#if !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <immintrin.h>
 #define FFSEG_EXP_VECTOR 1
+#endif
+
+// Wide kernels must not contract a * b + c into an FMA (the scalar code they
+// reproduce rounds both): GCC takes it per function, clang per file.
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#define FFSEG_NO_FMA_CONTRACT
+#else
+#define FFSEG_NO_FMA_CONTRACT __attribute__((optimize("fp-contract=off")))
 #endif
 
 namespace ffseg {
@@ -89,7 +100,7 @@ const ExpTable& table() {
 
 // Eight lanes: out = exp(x) correctly rounded where certified (see the
 // header), ok bit set; other lanes undefined.
-__attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) inline __mmask8 exp8(const ExpTable& T,
+__attribute__((target("avx512f,fma"))) FFSEG_NO_FMA_CONTRACT inline __mmask8 exp8(const ExpTable& T,
                                                                                       __m512d x, __m512d* out) {
   const __m512d inv_c = _mm512_set1_pd(16.0 / kLn2Hi);
   const __m512d shifter = _mm512_set1_pd(0x1.8p52);
@@ -152,7 +163,7 @@ __attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) inline __mma
 // Uncertified lanes are recorded per vector (a mask byte) and redone after
 // the vector loop, so the loop itself has no data-dependent branch.
 template <bool FALLBACK>
-__attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void exp_block_avx512(double* v, uint32_t n) {
+__attribute__((target("avx512f,fma"))) FFSEG_NO_FMA_CONTRACT void exp_block_avx512(double* v, uint32_t n) {
   const ExpTable& T = table();
   constexpr uint32_t kChunk = 256;  // vectors per pass of the fallback loop
   uint8_t okm[kChunk];
@@ -195,7 +206,7 @@ __attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void exp_blo
 
 // exp of the non-zero values only (exp(0) = 1 needs no evaluation): they are
 // packed by register compress, evaluated, and expanded back.
-__attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void exp_block_nonzero_avx512(double* v,
+__attribute__((target("avx512f,fma"))) FFSEG_NO_FMA_CONTRACT void exp_block_nonzero_avx512(double* v,
                                                                                                uint32_t n) {
   constexpr uint32_t kChunk = 512;
   double packed[kChunk + 8];

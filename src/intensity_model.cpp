@@ -6,11 +6,22 @@
 #include <cstring>
 // GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own
 // _mm512_undefined_* placeholders (GCC bug 105593).
+#if !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <immintrin.h>
 
 #include "exp_block.h"
 #include "smoothing.h"
+
+// Wide kernels must not contract a * b + c into an FMA (the scalar code they
+// reproduce rounds both): GCC takes it per function, clang per file.
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#define FFSEG_NO_FMA_CONTRACT
+#else
+#define FFSEG_NO_FMA_CONTRACT __attribute__((optimize("fp-contract=off")))
+#endif
 
 namespace ffseg {
 
@@ -191,7 +202,7 @@ void e_step_base(uint32_t m, const float* x, uint32_t n, double shift, const dou
 }
 
 template <bool EXACT>
-__attribute__((target("avx512f"), optimize("fp-contract=off"))) void e_step_avx512(
+__attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT void e_step_avx512(
     uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih,
     double* Z, double* Zx, double* Zxx, LogLik* ll) {
   e_step_switch<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
@@ -254,7 +265,7 @@ namespace {
 // |p - c_k| per lane (closed lanes c = +inf), the first lane of the minimum,
 // and the member sums updated in lane `best` only (masked adds, so each
 // cluster's sums are formed in visiting order as before).
-__attribute__((target("avx512f"), optimize("fp-contract=off"))) uint32_t binning_visits_avx512(
+__attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT uint32_t binning_visits_avx512(
     const float* x, uint32_t n, uint32_t stride, uint64_t* idx_io, uint32_t t0, double R, double S, double* c,
     uint32_t* cnt, double* sum, double* sum2, uint32_t* K_io) {
   uint32_t K = *K_io;

@@ -9,6 +9,15 @@
 #include <limits>
 #include <cstdlib>
 
+// Wide kernels must not contract a * b + c into an FMA (the scalar code they
+// reproduce rounds both): GCC takes it per function, clang per file.
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#define FFSEG_NO_FMA_CONTRACT
+#else
+#define FFSEG_NO_FMA_CONTRACT __attribute__((optimize("fp-contract=off")))
+#endif
+
 namespace ffseg {
 
 namespace {
@@ -439,11 +448,11 @@ __attribute__((always_inline)) inline void diffuse_sweep(float* buf, float* scra
 void diffuse_sse(float* buf, float* scratch, int64_t E0, int64_t E1, int64_t E2, const float w[3], const float ik[3]) {
   diffuse_sweep<V4, V4i, 4>(buf, scratch, E0, E1, E2, w, ik);
 }
-__attribute__((target("avx2"), optimize("fp-contract=off"))) void diffuse_avx2(float* buf, float* scratch, int64_t E0, int64_t E1, int64_t E2,
+__attribute__((target("avx2"))) FFSEG_NO_FMA_CONTRACT void diffuse_avx2(float* buf, float* scratch, int64_t E0, int64_t E1, int64_t E2,
                                                   const float w[3], const float ik[3]) {
   diffuse_sweep<V8, V8i, 8>(buf, scratch, E0, E1, E2, w, ik);
 }
-__attribute__((target("avx512f"), optimize("fp-contract=off"))) void diffuse_avx512(float* buf, float* scratch, int64_t E0, int64_t E1,
+__attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT void diffuse_avx512(float* buf, float* scratch, int64_t E0, int64_t E1,
                                                        int64_t E2, const float w[3], const float ik[3]) {
   diffuse_sweep<V16, V16i, 16>(buf, scratch, E0, E1, E2, w, ik);
 }
