@@ -165,7 +165,7 @@ __attribute__((target("avx512f,fma"))) FFSEG_NO_FMA_CONTRACT inline __mmask8 exp
 template <bool FALLBACK>
 __attribute__((target("avx512f,fma"))) FFSEG_NO_FMA_CONTRACT void exp_block_avx512(double* v, uint32_t n) {
   const ExpTable& T = table();
-  constexpr uint32_t kChunk = 256;  // vectors per pass of the fallback loop
+  constexpr uint32_t kChunk = 64;  // vectors per pass of the fallback loop (4 KB of stack)
   uint8_t okm[kChunk];
   double xs[kChunk * 8];
   uint32_t t = 0;

@@ -90,7 +90,7 @@ template <uint32_t M, bool EXACT>
 __attribute__((always_inline)) inline void e_step_body(const float* x, uint32_t n, double shift, const double* la,
                                                        const double* mu, const double* ih, double* Z, double* Zx,
                                                        double* Zxx, LogLik* ll_io) {
-  constexpr uint32_t kBlock = 128;
+  constexpr uint32_t kBlock = 64;  // 3 x 8 x 64 doubles of stack for M = 8
   alignas(64) double xv[kBlock], mxv[kBlock], sv[kBlock];
   alignas(64) double ev[M][kBlock], zx[M][kBlock], zxx[M][kBlock];
   double z0[M], z1[M], z2[M];
