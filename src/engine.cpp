@@ -380,6 +380,9 @@ Err Engine::update_features(Object& o, StepReport* r) {
     SmoothingSettings sm;
     sm.iterations = params_.smoothing_iterations;
     sm.kappa = o.model.valid() ? o.kappa : params_.smoothing_kappa;
+    // Once the model is fitted the box statistics are not read again: only the
+    // first crop's (kept kappa, the model's variance floor) count.
+    sm.statistics = !o.model.valid();
     const RoiStatus rs = o.roi.compute(vol_, lo, hi, sm, msg_, kMsgLen);
     if (rs == RoiStatus::too_large) return Err::roi_too_large;
     if (rs == RoiStatus::empty) {

@@ -3,8 +3,25 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+// GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own
+// _mm512_undefined_* placeholders (GCC bug 105593).
+#if !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+#include <immintrin.h>
 
+#include "exp_block.h"
 #include "smoothing.h"
+
+// Wide kernels must not contract a * b + c into an FMA (the scalar code they
+// reproduce rounds both): GCC takes it per function, clang per file.
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#define FFSEG_NO_FMA_CONTRACT
+#else
+#define FFSEG_NO_FMA_CONTRACT __attribute__((optimize("fp-contract=off")))
+#endif
 
 namespace ffseg {
 
@@ -29,53 +46,204 @@ void say(char* msg, size_t n, const char* text) {
 // M-step; M components as a compile-time count so the per-sample arrays live
 // in registers. Per sample and component the operations and their order are
 // those of the plain loop, so the sums are bit-identical for every M.
-template <uint32_t M>
-void e_step(const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih, double* Z,
-            double* Zx, double* Zxx, double* ll_io) {
-  double laa[M], mua[M], iha[M], z0[M], z1[M], z2[M];
-  for (uint32_t i = 0; i < M; ++i) laa[i] = la[i], mua[i] = mu[i], iha[i] = ih[i], z0[i] = Z[i], z1[i] = Zx[i], z2[i] = Zxx[i];
-  double ll = *ll_io;
-  for (uint32_t j = 0; j < n; ++j) {
-    if (!std::isfinite(x[j])) continue;
-    const double xj = double(x[j]) - shift;
-    double l[M], mx = -INFINITY;
-    for (uint32_t i = 0; i < M; ++i) {
-      const double d = xj - mua[i];
-      l[i] = laa[i] - d * d * iha[i];
-      mx = l[i] > mx ? l[i] : mx;
+//
+// The log-likelihood only decides when EM stops. EXACT: summed as
+// mx + log(s) per sample, in sample order (the reference). Otherwise the
+// per-sample log is replaced by one log per kLogChunk samples of the product of
+// their s (s in [1, M], so a chunk's product stays below 2^192): ll->sum gets
+// sum mx + sum log(product), ll->abs_mx sum |mx|, ll->log_s the sum of the
+// chunk logs. em_fit bounds the difference to the exact sum with these and
+// falls back to an EXACT pass when the stopping decision is not certain.
+constexpr uint32_t kLogChunk = 64;
+
+struct LogLik {
+  double sum = 0;     // sum over samples of mx + log(s) (exact or by chunks)
+  double abs_mx = 0;  // sum |mx| (chunked mode only)
+  double log_s = 0;   // sum log(s) (chunked mode only)
+};
+
+// Eight doubles; the kernels below are instantiated for the baseline target
+// (GCC splits them into SSE2 pairs) and for AVX-512F. Helpers taking these
+// are always inlined into the kernel, so no call crosses the ABI difference
+// GCC warns about.
+#pragma GCC diagnostic ignored "-Wpsabi"
+typedef double D8 __attribute__((vector_size(64)));
+typedef int64_t I8 __attribute__((vector_size(64)));
+
+__attribute__((always_inline)) inline D8 splat8(double v) { return D8{v, v, v, v, v, v, v, v}; }
+__attribute__((always_inline)) inline D8 load8(const double* p) {
+  D8 r;
+  std::memcpy(&r, p, sizeof r);
+  return r;
+}
+__attribute__((always_inline)) inline void store8(double* p, D8 v) { std::memcpy(p, &v, sizeof v); }
+
+// E-step in blocks of kBlock samples: the finite samples are gathered (shifted
+// to double), then per 8 samples the exponents l_i - max_i l_i (vector), the
+// exps (exp_block), s = sum_i exp in component order, z_i = exp_i / s,
+// z_i x, z_i x x (vector), and last the sums and the log-likelihood in sample
+// order (scalar). Per sample these are the operations of the plain loop
+//   d = x - mu_i; l_i = la_i - d d ih_i; mx = max; e_i = exp(l_i - mx);
+//   s = sum e_i; ll += mx + log(s); z = e_i (1 / s); Z_i += z; Zx_i += z x; Zxx_i += z x x,
+// each in IEEE double without contraction, so the sums are bit-identical.
+template <uint32_t M, bool EXACT>
+__attribute__((always_inline)) inline void e_step_body(const float* x, uint32_t n, double shift, const double* la,
+                                                       const double* mu, const double* ih, double* Z, double* Zx,
+                                                       double* Zxx, LogLik* ll_io) {
+  constexpr uint32_t kBlock = 64;  // 3 x 8 x 64 doubles of stack for M = 8
+  alignas(64) double xv[kBlock], mxv[kBlock], sv[kBlock];
+  alignas(64) double ev[M][kBlock], zx[M][kBlock], zxx[M][kBlock];
+  double z0[M], z1[M], z2[M];
+  for (uint32_t i = 0; i < M; ++i) z0[i] = Z[i], z1[i] = Zx[i], z2[i] = Zxx[i];
+  double ll = 0, smx = 0, amx = 0, lsum = 0, prod = 1;
+  uint32_t in_chunk = 0;
+  for (uint32_t j0 = 0; j0 < n; j0 += kBlock) {
+    const uint32_t j1 = n - j0 < kBlock ? n : j0 + kBlock;
+    uint32_t nb = 0;
+    for (uint32_t j = j0; j < j1; ++j)
+      if (std::isfinite(x[j])) xv[nb++] = double(x[j]) - shift;
+    if (nb == 0) continue;
+    const uint32_t nv = (nb + 7) & ~7u;
+    for (uint32_t b = nb; b < nv; ++b) xv[b] = 0;  // padding lanes, never summed
+    for (uint32_t b = 0; b < nv; b += 8) {
+      const D8 xj = load8(xv + b);
+      D8 l[M], mx = splat8(-INFINITY);
+#pragma GCC unroll 8
+      for (uint32_t i = 0; i < M; ++i) {
+        const D8 d = xj - splat8(mu[i]);
+        l[i] = splat8(la[i]) - d * d * splat8(ih[i]);
+        mx = l[i] > mx ? l[i] : mx;
+      }
+#pragma GCC unroll 8
+      for (uint32_t i = 0; i < M; ++i) store8(ev[i] + b, l[i] - mx);
+      store8(mxv + b, mx);
     }
-    // exp(0) is exactly 1: the largest term (at least one) needs no call.
-    double s = 0;
-    for (uint32_t i = 0; i < M; ++i) {
-      const double e = l[i] - mx;
-      s += (l[i] = e == 0 ? 1.0 : std::exp(e));
+    // std::exp of every exponent; the largest term's is exp(0) = 1, packed out.
+    // One call over the rows (kBlock apart); the gaps of a short last block
+    // are zeroed first (packed out too), the padding lanes' values are finite.
+    for (uint32_t i = 0; i + 1 < M; ++i)
+      for (uint32_t b = nv; b < kBlock; ++b) ev[i][b] = 0;
+    exp_block_nonzero(ev[0], (M - 1) * kBlock + nv);
+    for (uint32_t i = 0; i < M; ++i)
+      for (uint32_t b = nb; b < nv; ++b) ev[i][b] = 1;  // padding lanes: s stays finite
+    for (uint32_t b = 0; b < nv; b += 8) {
+      const D8 xj = load8(xv + b);
+      D8 e[M], s = splat8(0.0);
+#pragma GCC unroll 8
+      for (uint32_t i = 0; i < M; ++i) {
+        e[i] = load8(ev[i] + b);
+        s += e[i];
+      }
+      store8(sv + b, s);
+      const D8 inv = splat8(1.0) / s;
+#pragma GCC unroll 8
+      for (uint32_t i = 0; i < M; ++i) {
+        const D8 z = e[i] * inv;  // z_ij, eq. 5.2.4
+        const D8 zxj = z * xj;
+        store8(ev[i] + b, z);
+        store8(zx[i] + b, zxj);
+        store8(zxx[i] + b, zxj * xj);
+      }
     }
-    ll += mx + std::log(s);
-    const double inv = 1.0 / s;
-    for (uint32_t i = 0; i < M; ++i) {
-      const double z = l[i] * inv;  // z_ij, eq. 5.2.4
-      z0[i] += z;
-      z1[i] += z * xj;
-      z2[i] += z * xj * xj;
+    for (uint32_t b = 0; b < nb; ++b) {
+      const double mx = mxv[b], sb = sv[b];
+      if (EXACT) {
+        ll += mx + std::log(sb);
+      } else {
+        smx += mx;
+        amx += std::fabs(mx);
+        prod *= sb;
+        if (++in_chunk == kLogChunk) {
+          lsum += std::log(prod);
+          prod = 1;
+          in_chunk = 0;
+        }
+      }
+#pragma GCC unroll 8
+      for (uint32_t i = 0; i < M; ++i) {
+        z0[i] += ev[i][b];
+        z1[i] += zx[i][b];
+        z2[i] += zxx[i][b];
+      }
     }
   }
   for (uint32_t i = 0; i < M; ++i) Z[i] = z0[i], Zx[i] = z1[i], Zxx[i] = z2[i];
-  *ll_io = ll;
+  if (EXACT) {
+    ll_io->sum = ll;
+  } else {
+    if (in_chunk) lsum += std::log(prod);
+    ll_io->sum = smx + lsum;
+    ll_io->abs_mx = amx;
+    ll_io->log_s = lsum;
+  }
 }
 
-void e_step_dispatch(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
-                     const double* ih, double* Z, double* Zx, double* Zxx, double* ll) {
+template <bool EXACT>
+__attribute__((always_inline)) inline void e_step_switch(uint32_t m, const float* x, uint32_t n, double shift,
+                                                         const double* la, const double* mu, const double* ih,
+                                                         double* Z, double* Zx, double* Zxx, LogLik* ll) {
   static_assert(IntensityModel::kMaxComponents == 8, "one e_step instance per component count");
   switch (m) {
-    case 1: e_step<1>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 2: e_step<2>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 3: e_step<3>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 4: e_step<4>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 5: e_step<5>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 6: e_step<6>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 7: e_step<7>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    default: e_step<8>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 1: e_step_body<1, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 2: e_step_body<2, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 3: e_step_body<3, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 4: e_step_body<4, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 5: e_step_body<5, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 6: e_step_body<6, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 7: e_step_body<7, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    default: e_step_body<8, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
   }
+}
+
+template <bool EXACT>
+void e_step_base(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
+                 const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
+  e_step_switch<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+}
+
+template <bool EXACT>
+__attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT void e_step_avx512(
+    uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih,
+    double* Z, double* Zx, double* Zxx, LogLik* ll) {
+  e_step_switch<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+}
+
+template <bool EXACT>
+void e_step_m(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
+              const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
+  static const bool wide = __builtin_cpu_supports("avx512f");
+  if (wide) e_step_avx512<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  else e_step_base<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+}
+
+void e_step_dispatch(bool exact, uint32_t m, const float* x, uint32_t n, double shift, const double* la,
+                     const double* mu, const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
+  if (exact) e_step_m<true>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  else e_step_m<false>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+}
+
+// The exact mean log-likelihood (the reference sum) at parameters la, mu, ih.
+double exact_ll(uint32_t m, const float* x, uint32_t n, uint32_t nf, double shift, const double* la, const double* mu,
+                const double* ih, double half_log_2pi) {
+  double Z[IntensityModel::kMaxComponents] = {}, Zx[IntensityModel::kMaxComponents] = {},
+         Zxx[IntensityModel::kMaxComponents] = {};
+  LogLik L;
+  e_step_dispatch(true, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &L);
+  return L.sum / nf - half_log_2pi;
+}
+
+// Bound on |exact - chunked| mean log-likelihood. Per sample the reference
+// rounds log(s) (glibc: < 1 ulp) and mx + log(s); the recursive sum of n terms
+// errs by at most (n - 1) u sum |t_j|. The chunked sum rounds each product
+// (kLogChunk - 1 relative errors of u, log(1 + k u) <= k u per chunk), the
+// chunk logs and the two sums. Both are below (2 n + 16) u (sum |mx| + sum
+// log s + n); a factor 4 covers the chunked log_s standing in for the true
+// sum of log s and second-order terms. Then / nf and - log(2 pi) / 2 round
+// once each.
+double ll_error_bound(const LogLik& L, uint32_t n, uint32_t nf, double ll) {
+  const double u = 1.1102230246251565e-16;  // 2^-53
+  const double sum_abs = L.abs_mx + std::fabs(L.log_s) + double(n);
+  return 4.0 * (2.0 * double(n) + 16.0) * u * sum_abs / double(nf) + 8.0 * u * (std::fabs(ll) + 1.0);
 }
 
 }  // namespace
@@ -87,6 +255,80 @@ uint32_t mixing_stride(uint32_t n) {
   while (s < n && gcd32(s, n) != 1) ++s;
   return s < n ? s : 1;
 }
+
+namespace {
+
+// One pass of Algorithm 2's visits with at most 8 clusters held in vector
+// lanes (AVX-512F): from visit t0 on, until the end or until a 9th cluster
+// would open (that visit is left undone, idx still on it). Per visit the same
+// decisions and arithmetic as the scalar loop in adaptive_binning: d_k =
+// |p - c_k| per lane (closed lanes c = +inf), the first lane of the minimum,
+// and the member sums updated in lane `best` only (masked adds, so each
+// cluster's sums are formed in visiting order as before).
+__attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT uint32_t binning_visits_avx512(
+    const float* x, uint32_t n, uint32_t stride, uint64_t* idx_io, uint32_t t0, double R, double S, double* c,
+    uint32_t* cnt, double* sum, double* sum2, uint32_t* K_io) {
+  uint32_t K = *K_io;
+  const __mmask8 live = __mmask8((1u << K) - 1u);
+  __m512d cv = _mm512_mask_loadu_pd(_mm512_set1_pd(INFINITY), live, c);
+  __m512d sv = _mm512_mask_loadu_pd(_mm512_setzero_pd(), live, sum);
+  __m512d s2v = _mm512_mask_loadu_pd(_mm512_setzero_pd(), live, sum2);
+  int64_t cn[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  for (uint32_t k = 0; k < K; ++k) cn[k] = cnt[k];
+  __m512i nv = _mm512_loadu_si512(cn);
+  const __m512i one = _mm512_set1_epi64(1);
+  const __m512i abs_bits = _mm512_set1_epi64(0x7fffffffffffffffLL);
+  uint64_t idx = *idx_io;
+  uint32_t t = t0;
+  for (; t < n; ++t) {
+    const double p = x[idx];
+    uint64_t next = idx + stride;
+    if (next >= n) next -= n;
+    if (!std::isfinite(p)) {
+      idx = next;
+      continue;
+    }
+    const __m512d ev = _mm512_sub_pd(_mm512_set1_pd(p), cv);  // p - c_k
+    const __m512d dv = _mm512_castsi512_pd(_mm512_and_si512(_mm512_castpd_si512(ev), abs_bits));
+    double d = INFINITY;
+    uint32_t best = 0;
+    if (K > 0) {
+      d = _mm512_reduce_min_pd(dv);
+      best = uint32_t(__builtin_ctz(_mm512_cmp_pd_mask(dv, _mm512_set1_pd(d), _CMP_EQ_OQ)));
+    }
+    if (K == 0 || d >= S) {
+      if (K == 8) break;
+      const __mmask8 m = __mmask8(1u << K);
+      cv = _mm512_mask_mov_pd(cv, m, _mm512_set1_pd(p));
+      sv = _mm512_mask_mov_pd(sv, m, _mm512_setzero_pd());
+      s2v = _mm512_mask_mov_pd(s2v, m, _mm512_setzero_pd());
+      nv = _mm512_mask_mov_epi64(nv, m, one);
+      ++K;
+    } else if (d <= R) {
+      const __mmask8 m = __mmask8(1u << best);
+      sv = _mm512_mask_add_pd(sv, m, sv, ev);
+      s2v = _mm512_mask_add_pd(s2v, m, s2v, _mm512_mul_pd(ev, ev));
+      nv = _mm512_mask_add_epi64(nv, m, nv, one);
+    }
+    idx = next;
+  }
+  const __mmask8 out = __mmask8((1u << K) - 1u);
+  _mm512_mask_storeu_pd(c, out, cv);
+  _mm512_mask_storeu_pd(sum, out, sv);
+  _mm512_mask_storeu_pd(sum2, out, s2v);
+  _mm512_storeu_si512(cn, nv);
+  for (uint32_t k = 0; k < K; ++k) cnt[k] = uint32_t(cn[k]);
+  *K_io = K;
+  *idx_io = idx;
+  return t;
+}
+
+bool binning_vectorised() {
+  static const bool v = __builtin_cpu_supports("avx512f");
+  return v;
+}
+
+}  // namespace
 
 uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, Bin* bins, uint32_t max_bins,
                           uint32_t stride) {
@@ -104,7 +346,10 @@ uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, 
   for (uint32_t pass = 0; pass < (s.max_passes ? s.max_passes : 1); ++pass) {
     for (uint32_t k = 0; k < K; ++k) cnt[k] = 0, sum[k] = 0, sum2[k] = 0;
     uint64_t idx = 0;
-    for (uint32_t t = 0; t < n; ++t) {
+    uint32_t t = 0;
+    if (K <= 8 && binning_vectorised())
+      t = binning_visits_avx512(x, n, stride, &idx, 0, R, S, c, cnt, sum, sum2, &K);
+    for (; t < n; ++t) {
       const double p = x[idx];
       idx += stride;
       if (idx >= n) idx -= n;
@@ -188,8 +433,12 @@ uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, 
   return K;
 }
 
-EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
-                double var_floor, double tol) {
+namespace {
+
+// em_fit; exact_result: also report the exact (reference) log-likelihood,
+// which may cost one more pass (the engine does not read it).
+EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
+                     double var_floor, double tol, bool exact_result) {
   EmResult r;
   uint32_t m = *m_io;
   if (n == 0 || m == 0) return r;
@@ -214,20 +463,38 @@ EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uin
     v[i] = std::max(comp[i].var, vmin);
   }
   const double half_log_2pi = 0.5 * std::log(6.283185307179586);
-  double ll_prev = -INFINITY;
+  // ll: exact (the reference sum) when ll_exact, else chunked with error
+  // bound ll_err (see ll_error_bound). The stopping test ll - ll_prev < tol is
+  // decided on the chunked values when the bounds make it certain, else both
+  // sides are recomputed exactly (the previous E-step's parameters are kept
+  // for that), so EM takes exactly the reference's iterations.
+  const uint32_t M = IntensityModel::kMaxComponents;
+  double ll_prev = -INFINITY, prev_err = 0;
+  bool prev_exact = true;
+  double pla[M], pmu[M], pih[M];  // parameters of the previous E-step
+  uint32_t pm = 0, cm = 0;
+  double la[M], ih[M], emu[M];
+  double ll = 0;
+  bool ll_exact = false;
+  // Which log-likelihood the reference reports: none, the last E-step's
+  // (cur), or the one before the last loop exit (prev, kept in pla/pmu/pih).
+  enum { kReportNone, kReportCur, kReportPrev } report = kReportNone;
   uint32_t it = 0;
   while (it < max_iterations) {
     ++it;
-    double la[IntensityModel::kMaxComponents], ih[IntensityModel::kMaxComponents];
-    double Z[IntensityModel::kMaxComponents] = {}, Zx[IntensityModel::kMaxComponents] = {},
-           Zxx[IntensityModel::kMaxComponents] = {};
+    double Z[M] = {}, Zx[M] = {}, Zxx[M] = {};
     for (uint32_t i = 0; i < m; ++i) {
       la[i] = std::log(a[i]) - 0.5 * std::log(v[i]);
       ih[i] = 0.5 / v[i];
+      emu[i] = mu[i];
     }
-    double ll = 0;
-    e_step_dispatch(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &ll);
-    ll = ll / nf - half_log_2pi;
+    const uint32_t em = m;
+    cm = em;
+    LogLik L;
+    e_step_dispatch(false, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &L);
+    ll = L.sum / nf - half_log_2pi;
+    ll_exact = false;
+    const double ll_err = ll_error_bound(L, n, nf, ll);
     // M-step (eq. 5.2.5-5.2.7; 5.2.7 is the variance), variance floored.
     uint32_t k = 0;
     for (uint32_t i = 0; i < m; ++i) {
@@ -237,16 +504,44 @@ EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uin
       v[k] = std::max(Zxx[i] / Z[i] - mu[k] * mu[k], vmin);
       ++k;
     }
-    if (k == 0) break;  // cannot happen (the weights sum to n); keep the last parameters
+    if (k == 0) {  // cannot happen (the weights sum to n); keep the last parameters
+      report = it > 1 ? kReportPrev : kReportNone;
+      break;
+    }
     if (k < m) {
       double t = 0;
       for (uint32_t i = 0; i < k; ++i) t += a[i];
       for (uint32_t i = 0; i < k; ++i) a[i] /= t;
       m = k;
     }
-    r.log_likelihood = ll;
-    if (ll - ll_prev < tol && it > 1) break;
+    bool stop = false;
+    if (it > 1) {
+      const double margin = ll_err + prev_err;
+      const double diff = ll - ll_prev;
+      if (diff < tol - margin) {
+        stop = true;
+      } else if (!(diff >= tol + margin)) {  // not certain (or NaN): decide on exact values
+        if (!prev_exact) ll_prev = exact_ll(pm, x, n, nf, shift, pla, pmu, pih, half_log_2pi);
+        ll = exact_ll(em, x, n, nf, shift, la, emu, ih, half_log_2pi);
+        ll_exact = true;
+        stop = ll - ll_prev < tol;
+      }
+    }
+    if (stop) {
+      report = kReportCur;
+      break;
+    }
+    report = kReportPrev;  // the loop may end here: this iteration's values move to prev
     ll_prev = ll;
+    prev_err = ll_exact ? 0 : ll_err;
+    prev_exact = ll_exact;
+    for (uint32_t i = 0; i < em; ++i) pla[i] = la[i], pmu[i] = emu[i], pih[i] = ih[i];
+    pm = em;
+  }
+  if (report == kReportCur) {
+    r.log_likelihood = ll_exact || !exact_result ? ll : exact_ll(cm, x, n, nf, shift, la, emu, ih, half_log_2pi);
+  } else if (report == kReportPrev) {
+    r.log_likelihood = prev_exact || !exact_result ? ll_prev : exact_ll(pm, x, n, nf, shift, pla, pmu, pih, half_log_2pi);
   }
   r.iterations = it;
   for (uint32_t i = 0; i < m; ++i) {
@@ -256,6 +551,13 @@ EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uin
   }
   *m_io = m;
   return r;
+}
+
+}  // namespace
+
+EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
+                double var_floor, double tol) {
+  return em_fit_impl(x, n, comp, m_io, max_iterations, var_floor, tol, true);
 }
 
 void IntensityModel::carve(Arena& a, uint32_t max_samples) {
@@ -458,7 +760,7 @@ uint32_t IntensityModel::fit_mixture(const float* x, uint32_t n, double mean, do
       comp[i].var = std::max(bins[i].var, vfloor);
     }
   }
-  em_fit(x, n, comp, &m, s.em_iterations, vfloor);
+  em_fit_impl(x, n, comp, &m, s.em_iterations, vfloor, 1e-9, false);
   return m;
 }
 
@@ -525,7 +827,22 @@ void IntensityModel::normalise_and_tabulate(const LutSpec& lut) {
   }
   lut_v0_ = lut.slope * raw0 + lut.intercept;
   lut_inv_step_ = 1.0 / lut.slope;
-  for (uint32_t i = 0; i < count; ++i) lut_[i] = float(g_direct(lut.slope * (raw0 + i) + lut.intercept));
+  // Where every component's and competitor's exponent -d^2 / (2 var) is below
+  // -746, each exp is 0 (e^-746 < 2^-1076, under half the least subnormal), so
+  // g_direct is 0 there: only values within sqrt(1492 var) (plus a relative
+  // margin for rounding) of some mean are evaluated.
+  double vlo = INFINITY, vhi = -INFINITY;
+  auto widen = [&](const Gaussian1& c) {
+    const double w = std::sqrt(1492.0 * c.var) * (1 + 1e-6) + 1e-6 * std::fabs(c.mean) + 1e-300;
+    vlo = std::min(vlo, c.mean - w);
+    vhi = std::max(vhi, c.mean + w);
+  };
+  for (uint32_t i = 0; i < m_; ++i) widen(comp_[i]);
+  for (uint32_t c = 0; c < sm_; ++c) widen(scene_[c]);
+  for (uint32_t i = 0; i < count; ++i) {
+    const double v = lut.slope * (raw0 + i) + lut.intercept;
+    lut_[i] = (v >= vlo && v <= vhi) || !(std::isfinite(vlo) && std::isfinite(vhi)) ? float(g_direct(v)) : 0.0f;
+  }
   lut_n_ = count;
 }
 

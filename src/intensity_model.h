@@ -109,7 +109,10 @@ struct EmResult {
 // EM for a 1-D mixture (E-step eq. 5.2.4, M-step eq. 5.2.5-5.2.7) from the
 // components in comp[0..*m); variances floored at var_floor. Components whose
 // weight falls below 1e-4 are dropped (*m shrinks, at least one stays).
-// Stops when the mean log-likelihood improves by less than tol.
+// Stops when the mean log-likelihood improves by less than tol. The
+// log-likelihood is summed with one log per 64 samples and an error bound; the
+// plain per-sample sum is computed only when the bound cannot decide the
+// stopping test, so iterations and results are those of the plain loop.
 EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations, double var_floor,
                 double tol = 1e-9);
 

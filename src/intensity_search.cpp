@@ -4,7 +4,7 @@
 
 namespace ffseg {
 
-uint32_t search_intensity(const SmoothedRoi& roi, const IntensityModel& model, uint32_t nv, const double* x,
+__attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const IntensityModel& model, uint32_t nv, const double* x,
                           const double* normals, const IntensitySearchSettings& s, double* target, uint8_t* has) {
   for (uint32_t v = 0; v < nv; ++v) has[v] = 0;
   if (!roi.valid() || !model.valid() || !(s.range_mm > 0)) return 0;

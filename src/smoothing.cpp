@@ -6,6 +6,17 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
+#include <cstdlib>
+
+// Wide kernels must not contract a * b + c into an FMA (the scalar code they
+// reproduce rounds both): GCC takes it per function, clang per file.
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#define FFSEG_NO_FMA_CONTRACT
+#else
+#define FFSEG_NO_FMA_CONTRACT __attribute__((optimize("fp-contract=off")))
+#endif
 
 namespace ffseg {
 
@@ -44,12 +55,101 @@ int64_t SmoothedRoi::plane_capacity(int64_t max_voxels) {
 void SmoothedRoi::carve(Arena& a, int64_t max_voxels) {
   max_voxels_ = max_voxels > 0 ? max_voxels : 0;
   plane_cap_ = plane_capacity(max_voxels_);
-  scratch_len_ = 2 * plane_cap_;
+  scratch_len_ = 2 * plane_cap_ + 3;  // two sweep planes, a zero float before, between and after
   if (scratch_len_ < 4 * int64_t(kNoiseSamples)) scratch_len_ = 4 * int64_t(kNoiseSamples);
   if (max_voxels_ == 0) scratch_len_ = 0;
   buf_ = a.alloc<float>(size_t(max_voxels_));
   scratch_ = a.alloc<float>(size_t(scratch_len_));
   valid_ = false;
+}
+
+namespace {
+
+// Rows of raw integer voxels to floats: value = slope * raw + intercept in
+// double, then float, as VolumeView::for_each_in_row and the generic copy do;
+// the raw extremes are tracked instead of the values (the value is a monotone
+// function of the raw one).
+template <class T>
+void copy_rows(const unsigned char* origin, const int64_t* strides, const int64_t* glo, const int64_t* ext,
+               const int* ax, double slope, double intercept, float* out, T* rmin, T* rmax) {
+  T lo = std::numeric_limits<T>::max(), hi = std::numeric_limits<T>::lowest();
+  const int64_t s0 = strides[ax[0]], n0 = ext[ax[0]];
+  for (int64_t w = 0; w < ext[ax[2]]; ++w)
+    for (int64_t v = 0; v < ext[ax[1]]; ++v) {
+      int64_t idx[3];
+      idx[ax[0]] = glo[ax[0]];
+      idx[ax[1]] = glo[ax[1]] + v;
+      idx[ax[2]] = glo[ax[2]] + w;
+      const unsigned char* p = origin + idx[0] * strides[0] + idx[1] * strides[1] + idx[2] * strides[2];
+      if (s0 == int64_t(sizeof(T))) {
+        for (int64_t t = 0; t < n0; ++t) {
+          T r;
+          std::memcpy(&r, p + t * int64_t(sizeof(T)), sizeof r);
+          lo = r < lo ? r : lo;
+          hi = r > hi ? r : hi;
+          out[t] = float(slope * double(r) + intercept);
+        }
+      } else {
+        for (int64_t t = 0; t < n0; ++t) {
+          T r;
+          std::memcpy(&r, p + t * s0, sizeof r);
+          lo = r < lo ? r : lo;
+          hi = r > hi ? r : hi;
+          out[t] = float(slope * double(r) + intercept);
+        }
+      }
+      out += n0;
+    }
+  *rmin = lo;
+  *rmax = hi;
+}
+
+}  // namespace
+
+bool SmoothedRoi::integer_copy_applies(const VolumeView& vol) {
+  // Integer types up to 32 bits give finite values; the generic copy's clamp
+  // to +-1e30 is a no-op when every representable value stays within it.
+  const VoxelType t = vol.type();
+  const bool integer = t == VoxelType::U8 || t == VoxelType::I16 || t == VoxelType::U16 || t == VoxelType::I32;
+  return integer && std::fabs(vol.slope()) * 2147483648.0 + std::fabs(vol.intercept()) < 1e29;
+}
+
+bool SmoothedRoi::copy_integer(const VolumeView& vol, double* vmin, double* vmax) {
+  const double slope = vol.slope(), icpt = vol.intercept();
+  if (!integer_copy_applies(vol)) return false;
+  double rlo = 0, rhi = 0;
+  switch (vol.type()) {
+    case VoxelType::U8: {
+      uint8_t a, b;
+      copy_rows<uint8_t>(vol.origin(), vol.strides(), glo_, ext_, ax_, slope, icpt, buf_, &a, &b);
+      rlo = a, rhi = b;
+      break;
+    }
+    case VoxelType::I16: {
+      int16_t a, b;
+      copy_rows<int16_t>(vol.origin(), vol.strides(), glo_, ext_, ax_, slope, icpt, buf_, &a, &b);
+      rlo = a, rhi = b;
+      break;
+    }
+    case VoxelType::U16: {
+      uint16_t a, b;
+      copy_rows<uint16_t>(vol.origin(), vol.strides(), glo_, ext_, ax_, slope, icpt, buf_, &a, &b);
+      rlo = a, rhi = b;
+      break;
+    }
+    case VoxelType::I32: {
+      int32_t a, b;
+      copy_rows<int32_t>(vol.origin(), vol.strides(), glo_, ext_, ax_, slope, icpt, buf_, &a, &b);
+      rlo = a, rhi = b;
+      break;
+    }
+    default:
+      return false;
+  }
+  const double x0 = slope * rlo + icpt, x1 = slope * rhi + icpt;
+  *vmin = slope > 0 ? x0 : x1;
+  *vmax = slope > 0 ? x1 : x0;
+  return true;
 }
 
 RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], const int64_t hi_in[3],
@@ -74,6 +174,7 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
     glo_[a] = lo_[a] - int64_t(margin) < 0 ? 0 : lo_[a] - int64_t(margin);
     ghi_[a] = D[a] - hi_[a] < int64_t(margin) ? D[a] : hi_[a] + int64_t(margin);
     ext[a] = ghi_[a] - glo_[a];
+    ext_[a] = ext[a];
   }
   needed_ = ext[0] * ext[1] * ext[2];  // <= the grid's voxel count, which fits
   if (needed_ > max_voxels_) {
@@ -110,24 +211,30 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
   }
   for (int a = 0; a < 3; ++a) h_[a] = vol.spacing()[a];
 
-  estimate_noise(vol);
+  if (s.statistics || !(s.kappa > 0) || !integer_copy_applies(vol)) {
+    estimate_noise(vol);
+  } else {  // not needed: kappa is given and no voxel can be non-finite
+    sigma_n_ = p_lo_ = p_hi_ = 0;
+  }
   // Copy the raw region in.
   double vmin = INFINITY, vmax = -INFINITY;
-  int64_t idx[3];
-  float* out = buf_;
-  for (int64_t w = 0; w < ext[ax_[2]]; ++w) {
-    idx[ax_[2]] = glo_[ax_[2]] + w;
-    for (int64_t v = 0; v < ext[ax_[1]]; ++v) {
-      idx[ax_[1]] = glo_[ax_[1]] + v;
-      idx[ax_[0]] = glo_[ax_[0]];
-      const double plo = p_lo_;
-      vol.for_each_in_row(idx[0], idx[1], idx[2], ax_[0], ext[ax_[0]], [&](int64_t, double x) {
-        if (!std::isfinite(x)) x = plo;  // NaN / inf voxels (float volumes) read as the 1st percentile
-        x = x < -1e30 ? -1e30 : (x > 1e30 ? 1e30 : x);  // finite in float, and so are differences
-        vmin = x < vmin ? x : vmin;
-        vmax = x > vmax ? x : vmax;
-        *out++ = float(x);
-      });
+  if (!copy_integer(vol, &vmin, &vmax)) {
+    int64_t idx[3];
+    float* out = buf_;
+    for (int64_t w = 0; w < ext[ax_[2]]; ++w) {
+      idx[ax_[2]] = glo_[ax_[2]] + w;
+      for (int64_t v = 0; v < ext[ax_[1]]; ++v) {
+        idx[ax_[1]] = glo_[ax_[1]] + v;
+        idx[ax_[0]] = glo_[ax_[0]];
+        const double plo = p_lo_;
+        vol.for_each_in_row(idx[0], idx[1], idx[2], ax_[0], ext[ax_[0]], [&](int64_t, double x) {
+          if (!std::isfinite(x)) x = plo;  // NaN / inf voxels (float volumes) read as the 1st percentile
+          x = x < -1e30 ? -1e30 : (x > 1e30 ? 1e30 : x);  // finite in float, and so are differences
+          vmin = x < vmin ? x : vmin;
+          vmax = x > vmax ? x : vmax;
+          *out++ = float(x);
+        });
+      }
     }
   }
   vmin_ = vmin;
@@ -209,38 +316,145 @@ inline float diffuse_voxel(const float* cur, const float* prev, const float* nex
   return c0 + acc;
 }
 
-// Four voxels at once with the scalar code's exact operations and order (SSE2
-// lanes are IEEE single precision like the scalar unit, and no FMA is formed),
-// so the result is bit-identical to diffuse_voxel.
+// W voxels at once with the scalar code's exact operations and order (vector
+// lanes are IEEE single precision like the scalar unit, and no FMA is formed:
+// ISO mode compiles with -ffp-contract=off and the wide kernels' targets leave
+// out "fma"), so the result is bit-identical to diffuse_voxel for every W.
+// The helpers below take and return 32- and 64-byte vectors; they are always
+// inlined into the kernels compiled for those widths, so no call crosses the
+// ABI difference GCC warns about.
+#pragma GCC diagnostic ignored "-Wpsabi"
 typedef float V4 __attribute__((vector_size(16)));
-inline V4 load4(const float* p) {
-  V4 r;
+typedef float V8 __attribute__((vector_size(32)));
+typedef float V16 __attribute__((vector_size(64)));
+typedef int32_t V4i __attribute__((vector_size(16)));
+typedef int32_t V8i __attribute__((vector_size(32)));
+typedef int32_t V16i __attribute__((vector_size(64)));
+template <class V>
+__attribute__((always_inline)) inline V loadv(const float* p) {
+  V r;
   std::memcpy(&r, p, sizeof r);
   return r;
 }
-inline void store4(float* p, V4 v) { std::memcpy(p, &v, sizeof v); }
-inline V4 face_flux4(V4 d, V4 w, V4 ik, V4 one) { return w * d / (one + d * d * ik); }
+template <class V>
+__attribute__((always_inline)) inline void storev(float* p, V v) {
+  std::memcpy(p, &v, sizeof v);
+}
+template <class V>
+__attribute__((always_inline)) inline V face_fluxv(V d, V w, V ik, V one) {
+  return w * d / (one + d * d * ik);
+}
 
-// Interior voxels u in [1, E0 - 1) of one row (both u faces exist).
-void diffuse_row(const float* cur, const float* prev, const float* next, float* outp, int64_t row, int64_t E0, bool vm,
-                 bool vp, const float w[3], const float ik[3]) {
-  const V4 one = {1.0f, 1.0f, 1.0f, 1.0f};
-  const V4 w0 = {w[0], w[0], w[0], w[0]}, w1 = {w[1], w[1], w[1], w[1]}, w2 = {w[2], w[2], w[2], w[2]};
-  const V4 k0 = {ik[0], ik[0], ik[0], ik[0]}, k1 = {ik[1], ik[1], ik[1], ik[1]}, k2 = {ik[2], ik[2], ik[2], ik[2]};
-  int64_t u = 1;
-  for (; u + 4 <= E0 - 1; u += 4) {
-    const int64_t i = row + u;
-    const V4 c0 = load4(cur + i);
-    V4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
-    acc += face_flux4(load4(cur + i - 1) - c0, w0, k0, one);
-    acc += face_flux4(load4(cur + i + 1) - c0, w0, k0, one);
-    if (vm) acc += face_flux4(load4(cur + i - E0) - c0, w1, k1, one);
-    if (vp) acc += face_flux4(load4(cur + i + E0) - c0, w1, k1, one);
-    if (prev) acc += face_flux4(load4(prev + i) - c0, w2, k2, one);
-    if (next) acc += face_flux4(load4(next + i) - c0, w2, k2, one);
-    store4(outp + i, c0 + acc);
+// Interior voxels u in [u, E0 - 1) of one row (both u faces exist), W lanes at
+// a time; returns the first voxel not done.
+template <class V, int W>
+__attribute__((always_inline)) inline int64_t diffuse_lanes(const float* cur, const float* prev, const float* next,
+                                                            float* outp, int64_t row, int64_t u, int64_t E0, bool vm,
+                                                            bool vp, const float w[3], const float ik[3]) {
+  V one, w0, w1, w2, k0, k1, k2, zero;
+  for (int l = 0; l < W; ++l) {
+    one[l] = 1.0f, zero[l] = 0.0f;
+    w0[l] = w[0], w1[l] = w[1], w2[l] = w[2];
+    k0[l] = ik[0], k1[l] = ik[1], k2[l] = ik[2];
   }
-  for (; u < E0 - 1; ++u) outp[row + u] = diffuse_voxel(cur, prev, next, row + u, u, E0, vm, vp, w, ik);
+  for (; u + W <= E0 - 1; u += W) {
+    const int64_t i = row + u;
+    const V c0 = loadv<V>(cur + i);
+    V acc = zero;
+    acc += face_fluxv<V>(loadv<V>(cur + i - 1) - c0, w0, k0, one);
+    acc += face_fluxv<V>(loadv<V>(cur + i + 1) - c0, w0, k0, one);
+    if (vm) acc += face_fluxv<V>(loadv<V>(cur + i - E0) - c0, w1, k1, one);
+    if (vp) acc += face_fluxv<V>(loadv<V>(cur + i + E0) - c0, w1, k1, one);
+    if (prev) acc += face_fluxv<V>(loadv<V>(prev + i) - c0, w2, k2, one);
+    if (next) acc += face_fluxv<V>(loadv<V>(next + i) - c0, w2, k2, one);
+    storev<V>(outp + i, c0 + acc);
+  }
+  return u;
+}
+
+// W voxels from u at once where the first lane is the row's first voxel
+// (FIRST: no -u face) or the last lane its last voxel (LAST: no +u face): the
+// missing face is not added (a lane select keeps the sum without it), so each
+// lane performs exactly diffuse_voxel's operations. Reads cur[row + u - 1] and
+// cur[row + u + W], which lie in the neighbouring rows or the zero pads around
+// the plane copy.
+template <class V, class VI, int W, bool FIRST, bool LAST>
+__attribute__((always_inline)) inline void diffuse_edge(const float* cur, const float* prev, const float* next,
+                                                        float* outp, int64_t row, int64_t u, int64_t E0, bool vm,
+                                                        bool vp, const float w[3], const float ik[3]) {
+  V one, w0, w1, w2, k0, k1, k2, zero;
+  VI first, last;
+  for (int l = 0; l < W; ++l) {
+    one[l] = 1.0f, zero[l] = 0.0f;
+    w0[l] = w[0], w1[l] = w[1], w2[l] = w[2];
+    k0[l] = ik[0], k1[l] = ik[1], k2[l] = ik[2];
+    first[l] = l == 0 ? -1 : 0;
+    last[l] = l == W - 1 ? -1 : 0;
+  }
+  const int64_t i = row + u;
+  const V c0 = loadv<V>(cur + i);
+  V acc = zero;
+  const V a1 = acc + face_fluxv<V>(loadv<V>(cur + i - 1) - c0, w0, k0, one);
+  acc = FIRST ? (first ? acc : a1) : a1;
+  const V a2 = acc + face_fluxv<V>(loadv<V>(cur + i + 1) - c0, w0, k0, one);
+  acc = LAST ? (last ? acc : a2) : a2;
+  if (vm) acc += face_fluxv<V>(loadv<V>(cur + i - E0) - c0, w1, k1, one);
+  if (vp) acc += face_fluxv<V>(loadv<V>(cur + i + E0) - c0, w1, k1, one);
+  if (prev) acc += face_fluxv<V>(loadv<V>(prev + i) - c0, w2, k2, one);
+  if (next) acc += face_fluxv<V>(loadv<V>(next + i) - c0, w2, k2, one);
+  storev<V>(outp + i, c0 + acc);
+}
+
+// One explicit step over the region (planes along the slowest axis, swept in
+// place with two planes of scratch; see SmoothedRoi::diffuse). Rows of at
+// least 2W voxels: W lanes throughout, the first and last vector with the
+// edge voxels (the last one overlaps the interior: the same values again).
+// Shorter rows: scalar edges, 4 lanes, scalar rest.
+template <class V, class VI, int W>
+__attribute__((always_inline)) inline void diffuse_sweep(float* buf, float* scratch, int64_t E0, int64_t E1,
+                                                         int64_t E2, const float w[3], const float ik[3]) {
+  const int64_t P = E0 * E1;
+  scratch[0] = scratch[P + 1] = scratch[2 * P + 2] = 0.0f;
+  for (int64_t q = 0; q < E2; ++q) {
+    // Old values: plane q in copy q & 1, plane q - 1 in the other, plane q + 1
+    // still untouched in buf; the new plane q is written in place.
+    float* cur = scratch + 1 + (q & 1) * (P + 1);
+    const float* prev = q > 0 ? scratch + 1 + ((q + 1) & 1) * (P + 1) : nullptr;
+    float* outp = buf + q * P;
+    std::memcpy(cur, outp, size_t(P) * sizeof(float));
+    const float* next = q + 1 < E2 ? buf + (q + 1) * P : nullptr;
+    for (int64_t v = 0; v < E1; ++v) {
+      const int64_t row = v * E0;
+      const bool vm = v > 0, vp = v + 1 < E1;
+      if (E0 >= 2 * W) {
+        diffuse_edge<V, VI, W, true, false>(cur, prev, next, outp, row, 0, E0, vm, vp, w, ik);
+        const int64_t u = diffuse_lanes<V, W>(cur, prev, next, outp, row, W, E0, vm, vp, w, ik);
+        (void)u;
+        diffuse_edge<V, VI, W, false, true>(cur, prev, next, outp, row, E0 - W, E0, vm, vp, w, ik);
+        continue;
+      }
+      if (E0 < 3) {
+        for (int64_t u = 0; u < E0; ++u) outp[row + u] = diffuse_voxel(cur, prev, next, row + u, u, E0, vm, vp, w, ik);
+        continue;
+      }
+      outp[row] = diffuse_voxel(cur, prev, next, row, 0, E0, vm, vp, w, ik);
+      int64_t u = diffuse_lanes<V4, 4>(cur, prev, next, outp, row, 1, E0, vm, vp, w, ik);
+      for (; u < E0 - 1; ++u) outp[row + u] = diffuse_voxel(cur, prev, next, row + u, u, E0, vm, vp, w, ik);
+      outp[row + E0 - 1] = diffuse_voxel(cur, prev, next, row + E0 - 1, E0 - 1, E0, vm, vp, w, ik);
+    }
+  }
+}
+
+void diffuse_sse(float* buf, float* scratch, int64_t E0, int64_t E1, int64_t E2, const float w[3], const float ik[3]) {
+  diffuse_sweep<V4, V4i, 4>(buf, scratch, E0, E1, E2, w, ik);
+}
+__attribute__((target("avx2"))) FFSEG_NO_FMA_CONTRACT void diffuse_avx2(float* buf, float* scratch, int64_t E0, int64_t E1, int64_t E2,
+                                                  const float w[3], const float ik[3]) {
+  diffuse_sweep<V8, V8i, 8>(buf, scratch, E0, E1, E2, w, ik);
+}
+__attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT void diffuse_avx512(float* buf, float* scratch, int64_t E0, int64_t E1,
+                                                       int64_t E2, const float w[3], const float ik[3]) {
+  diffuse_sweep<V16, V16i, 16>(buf, scratch, E0, E1, E2, w, ik);
 }
 
 }  // namespace
@@ -249,35 +463,35 @@ void SmoothedRoi::diffuse(uint32_t iterations) {
   const int64_t E0 = ghi_[ax_[0]] - glo_[ax_[0]];
   const int64_t E1 = ghi_[ax_[1]] - glo_[ax_[1]];
   const int64_t E2 = ghi_[ax_[2]] - glo_[ax_[2]];
-  const int64_t P = E0 * E1;
   float w[3], ik[3];
   for (int s = 0; s < 3; ++s) {
     const double h = h_[ax_[s]];
     w[s] = float(dt_ / (h * h));                       // dt / h_a^2
     ik[s] = float(1.0 / (h * h * kappa_ * kappa_));    // (1 / (h_a kappa))^2, eq. 5.2.2
   }
+  // Same arithmetic in every kernel (bit-identical); the widest the CPU runs.
+  const SmoothKernel k = kernel_available(kernel_) ? kernel_ : best_kernel();
   for (uint32_t it = 0; it < iterations; ++it) {
-    for (int64_t q = 0; q < E2; ++q) {
-      // Old values: plane q in sv[q & 1], plane q - 1 in the other, plane q + 1
-      // still untouched in buf_; the new plane q is written in place.
-      float* cur = scratch_ + (q & 1) * P;
-      const float* prev = q > 0 ? scratch_ + ((q + 1) & 1) * P : nullptr;
-      float* outp = buf_ + q * P;
-      std::memcpy(cur, outp, size_t(P) * sizeof(float));
-      const float* next = q + 1 < E2 ? buf_ + (q + 1) * P : nullptr;
-      for (int64_t v = 0; v < E1; ++v) {
-        const int64_t row = v * E0;
-        const bool vm = v > 0, vp = v + 1 < E1;
-        if (E0 < 3) {
-          for (int64_t u = 0; u < E0; ++u) outp[row + u] = diffuse_voxel(cur, prev, next, row + u, u, E0, vm, vp, w, ik);
-          continue;
-        }
-        outp[row] = diffuse_voxel(cur, prev, next, row, 0, E0, vm, vp, w, ik);
-        diffuse_row(cur, prev, next, outp, row, E0, vm, vp, w, ik);
-        outp[row + E0 - 1] = diffuse_voxel(cur, prev, next, row + E0 - 1, E0 - 1, E0, vm, vp, w, ik);
-      }
-    }
+    if (k == SmoothKernel::avx512) diffuse_avx512(buf_, scratch_, E0, E1, E2, w, ik);
+    else if (k == SmoothKernel::avx2) diffuse_avx2(buf_, scratch_, E0, E1, E2, w, ik);
+    else diffuse_sse(buf_, scratch_, E0, E1, E2, w, ik);
   }
+}
+
+bool SmoothedRoi::kernel_available(SmoothKernel k) {
+  switch (k) {
+    case SmoothKernel::lanes4: return true;
+    case SmoothKernel::avx2: return __builtin_cpu_supports("avx2");
+    case SmoothKernel::avx512: return __builtin_cpu_supports("avx512f");
+    default: return false;
+  }
+}
+
+SmoothKernel SmoothedRoi::best_kernel() {
+  static const SmoothKernel best = kernel_available(SmoothKernel::avx512) ? SmoothKernel::avx512
+                                   : kernel_available(SmoothKernel::avx2) ? SmoothKernel::avx2
+                                                                          : SmoothKernel::lanes4;
+  return best;
 }
 
 bool SmoothedRoi::contains(const int64_t lo[3], const int64_t hi[3]) const {

@@ -35,7 +35,8 @@
 // requested box the result equals smoothing the whole volume (zero flux at the
 // grid's faces) - exactly, for a given kappa.
 //
-// Memory: max_voxels floats for the region, plus 2 planes of the region for the
+// Memory: max_voxels floats for the region, plus 2 planes of the region (and 3
+// zero floats around them, read by the vector kernels' edge lanes) for the
 // in-place sweep (the region is stored with its longest axis slowest, so a plane
 // holds at most max_voxels^(2/3) voxels), at least 4 * kNoiseSamples floats
 // (shared with the noise estimate).
@@ -56,6 +57,10 @@ namespace ffseg {
 struct SmoothingSettings {
   uint32_t iterations = 5;  // explicit steps of dt each (also the crop margin in voxels)
   double kappa = 0;         // intensity per mm; <= 0: derived from the noise estimate
+  // false: with kappa > 0 on an integer volume, skip the statistics of the
+  // requested box (noise_sigma(), robust_low/high() then read 0); the
+  // smoothed values do not depend on them there.
+  bool statistics = true;
 };
 
 enum class RoiStatus : int {
@@ -66,8 +71,19 @@ enum class RoiStatus : int {
   bad_volume,  // the view is not valid
 };
 
+// The diffusion step's kernels: 4 lanes (baseline x86-64), 8 (AVX2), 16
+// (AVX-512F). Each lane performs the scalar code's operations in its order
+// without FMA, so all give bit-identical crops; auto picks the widest the CPU
+// runs.
+enum class SmoothKernel : int { automatic = -1, lanes4 = 0, avx2 = 1, avx512 = 2 };
+
 class SmoothedRoi {
  public:
+  static bool kernel_available(SmoothKernel k);
+  static SmoothKernel best_kernel();
+  // Test hook: force a kernel (ignored when the CPU lacks it).
+  void set_kernel(SmoothKernel k) { kernel_ = k; }
+
   static constexpr uint32_t kNoiseSamples = 8192;
 
   // Floats per sweep plane for a region of at most max_voxels voxels.
@@ -117,8 +133,9 @@ class SmoothedRoi {
       const double l = double(glo_[a]), h = double(ghi_[a] - 1);
       if (!(x > l)) x = l;  // NaN too
       if (x > h) x = h;
-      const double fl = std::floor(x);
-      int64_t q = int64_t(fl);
+      // x >= data_lo >= 0 here, so truncation is floor (and cheaper than it).
+      int64_t q = int64_t(x);
+      const double fl = double(q);
       f[a] = x - fl;
       if (q >= ghi_[a] - 1) {
         q = ghi_[a] - 1;
@@ -163,6 +180,10 @@ class SmoothedRoi {
  private:
   void estimate_noise(const VolumeView& vol);
   void diffuse(uint32_t iterations);
+  // Copies the stored region of an integer volume (typed rows); false: the
+  // generic per-voxel copy must do it (floats, or extreme rescale factors).
+  bool copy_integer(const VolumeView& vol, double* vmin, double* vmax);
+  static bool integer_copy_applies(const VolumeView& vol);
 
   float* buf_ = nullptr;
   float* scratch_ = nullptr;
@@ -174,6 +195,8 @@ class SmoothedRoi {
   int64_t glo_[3] = {0, 0, 0}, ghi_[3] = {0, 0, 0};
   int64_t grid_[3] = {0, 0, 0};
   int64_t st_[3] = {0, 0, 0};  // buffer stride of each index axis
+  int64_t ext_[3] = {0, 0, 0}; // stored region's extent per index axis
+  SmoothKernel kernel_ = SmoothKernel::automatic;
   int ax_[3] = {0, 1, 2};      // storage order, fastest first
   int64_t needed_ = 0;
   double A_[12] = {}, Ainv_[12] = {};
