@@ -7,8 +7,13 @@
 namespace ffseg {
 
 namespace {
-// At most nt / kBigShare + 16 triangles lie outside the grid.
-constexpr uint32_t kBigShare = 256;
+// At most nt / kRefShare + 16 triangles outgrow the reference cells (a
+// full check doubles its cell size until they do; more in a tracked call:
+// start afresh), at most nt / kBigShare + 16 lie outside the grid (its cell
+// size doubles until they do).
+constexpr uint32_t kRefShare = 256;
+constexpr uint32_t kBigShare = 64;
+constexpr uint8_t kOutside = 1, kWide = 2;
 }  // namespace
 
 void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
@@ -19,6 +24,7 @@ void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
   lo = a.alloc<double>(size_t(3) * nt);
   hi = a.alloc<double>(size_t(3) * nt);
   big_cap = nt / kBigShare + 16;
+  ref_cap = nt / kRefShare + 16;
   big = a.alloc<uint32_t>(big_cap + 1);
   is_big = a.alloc<uint8_t>(nt);
   touched = a.alloc<uint8_t>(nt);
@@ -172,20 +178,20 @@ struct Pairs {
       });
     } else {
       for (uint32_t u = 0; u < nt && !stop; ++u)
-        if (!s.is_big[u] && !skip(u) && overlap(t, u)) stop = ordered(t, u);
+        if (!(s.is_big[u] & kOutside) && !skip(u) && overlap(t, u)) stop = ordered(t, u);
     }
     return stop;
   }
   // Every pair of grid boxes, by cells; stops at the first crossing pair
   // without mark.
   bool grid_pairs() {
-    return s.grid.for_each_cell_pair([&](uint32_t t, uint32_t u, uint32_t key) {
-      if (!overlap(t, u)) return false;
-      const double *lt = s.lo + 3 * size_t(t), *lu = s.lo + 3 * size_t(u);
-      const double corner[3] = {lt[0] > lu[0] ? lt[0] : lu[0], lt[1] > lu[1] ? lt[1] : lu[1],
-                                lt[2] > lu[2] ? lt[2] : lu[2]};
-      return s.grid.packed_cell(corner) == key && consider(t, u);
-    });
+    return s.grid.for_each_cell_pair([&](uint32_t t, uint32_t u) { return overlap(t, u) && consider(t, u); });
+  }
+  // The same over the pairs with keep(t, u) only.
+  template <class Keep>
+  bool grid_pairs_with(Keep&& keep) {
+    return s.grid.for_each_cell_pair(
+        [&](uint32_t t, uint32_t u) { return keep(t, u) && overlap(t, u) && consider(t, u); });
   }
   // Every pair of a grid box t with a grid box u where skip(u) is false.
   template <class Skip>
@@ -193,31 +199,62 @@ struct Pairs {
     const double* lt = s.lo + 3 * size_t(t);
     const double* ht = s.hi + 3 * size_t(t);
     bool stop = false;
-    s.grid.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* c) {
-      if (!stop && u != t && !skip(u) && overlap(t, u) && owns(t, u, c)) stop = ordered(t, u);
+    s.grid.for_each_owned_entry(lt, ht, [&](uint32_t u) {
+      if (!stop && u != t && !skip(u) && overlap(t, u)) stop = ordered(t, u);
     });
     return stop;
   }
 };
 
-// Cell size and big boxes for the prepared triangles; then the grid.
-void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double rmax) {
+// BoxGrid::fits at the cell size 1 / inv_h.
+bool fits_at(double inv_h, const double* lo, const double* hi) {
+  for (int a = 0; a < 3; ++a)
+    if (!(floor_i64(hi[a] * inv_h) - floor_i64(lo[a] * inv_h) <= 1)) return false;
+  return true;
+}
+
+// The grid at cell size h or the smallest doubling of it that leaves at
+// most big_cap boxes outside; the big list.
+void layout_enum(const CubeSphere& m, TriangleScratch& s, double h) {
   const uint32_t nt = m.triangle_count();
-  double h = 2 * emean + 1e-9 * rmax;
   for (;;) {
     s.grid.set_cell_size(h);
     s.nbig = 0;
     for (uint32_t t = 0; t < nt; ++t) {
-      s.is_big[t] = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
-      s.nbig += s.is_big[t];
+      const bool out = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+      s.is_big[t] = uint8_t((s.is_big[t] & ~kOutside) | (out ? kOutside : 0));
+      s.nbig += out;
     }
     if (s.nbig <= s.big_cap) break;
     h *= 2;
   }
   uint32_t k = 0;
   for (uint32_t t = 0; t < nt; ++t)
-    if (s.is_big[t]) s.big[k++] = t;
-  s.grid.build(s.lo, s.hi, nt, [&](uint32_t t) { return !s.is_big[t]; });
+    if (s.is_big[t] & kOutside) s.big[k++] = t;
+  s.grid.build(s.lo, s.hi, nt, [&](uint32_t t) { return !(s.is_big[t] & kOutside); });
+}
+
+// The reference cell size for the prepared triangles (doubled until at most
+// ref_cap boxes outgrow it) and their kWide bits; then the grid.
+void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double rmax) {
+  const uint32_t nt = m.triangle_count();
+  const double h0 = 2 * emean + 1e-9 * rmax;
+  double h = h0;
+  for (;;) {
+    const double inv_h = 1.0 / h;
+    uint32_t wide = 0;
+    for (uint32_t t = 0; t < nt; ++t) {
+      const bool w = !fits_at(inv_h, s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+      s.is_big[t] = w ? kWide : 0;
+      wide += w;
+    }
+    if (wide <= s.ref_cap) {
+      s.ref_inv_h = inv_h;
+      break;
+    }
+    h *= 2;
+  }
+  layout_enum(m, s, h0);
 }
 
 // The whole check from scratch; with record, also keeps the crossing pairs
@@ -296,18 +333,20 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
     s.tracked = false;
     return 0;
   }
-  // The grid keeps its cell size; boxes that outgrew it join the big ones
-  // (beyond their cap: start afresh).
+  // The reference cell size stays; more boxes outgrowing it than its cap:
+  // start afresh. The grid keeps its cell size (doubled when too many boxes
+  // outgrew it); boxes outside it join the big ones.
   if (ntouched) {
-    s.nbig = 0;
+    uint32_t wide = 0;
     for (uint32_t t = 0; t < nt; ++t) {
-      if (s.touched[t]) s.is_big[t] = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
-      if (s.is_big[t]) {
-        if (s.nbig == s.big_cap) return full_check(m, x, s, mark, true);
-        s.big[s.nbig++] = t;
+      if (s.touched[t]) {
+        const bool w = !fits_at(s.ref_inv_h, s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+        s.is_big[t] = uint8_t((s.is_big[t] & ~kWide) | (w ? kWide : 0));
       }
+      wide += (s.is_big[t] & kWide) != 0;
     }
-    s.grid.build(s.lo, s.hi, nt, [&](uint32_t t) { return !s.is_big[t]; });
+    if (wide > s.ref_cap) return full_check(m, x, s, mark, true);
+    layout_enum(m, s, s.grid.cell_size());
   }
   // Pairs between untouched triangles stand; the others are found afresh.
   Pairs P{m, x, s, mark, true};
@@ -327,11 +366,15 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
   // Each new pair once: touched grid boxes against the grid (two touched:
   // from the lower index) and against every big box; touched big boxes
   // against untouched grid boxes and against the big boxes (two touched:
-  // from the lower index).
+  // from the lower index). With most boxes touched (small meshes, wide
+  // tapers), the grid pairs come from one walk over the cells instead, the
+  // same pairs: those with a touched box.
+  const bool walk = 2 * size_t(ntouched) > nt;
+  if (walk) P.grid_pairs_with([&](uint32_t t, uint32_t u) { return (s.touched[t] | s.touched[u]) != 0; });
   for (uint32_t t = 0; t < nt; ++t) {
     if (!s.touched[t]) continue;
-    if (!s.is_big[t]) {
-      P.grid_vs_grid(t, [&](uint32_t u) { return s.touched[u] && u < t; });
+    if (!(s.is_big[t] & kOutside)) {
+      if (!walk) P.grid_vs_grid(t, [&](uint32_t u) { return s.touched[u] && u < t; });
       for (uint32_t j = 0; j < s.nbig; ++j)
         if (P.overlap(t, s.big[j])) P.ordered(t, s.big[j]);
     } else {

@@ -20,11 +20,18 @@ struct TriangleScratch {
   double* radius = nullptr;   // per triangle: farthest vertex from the centroid
   double* lo = nullptr;       // 3 per triangle: bounding box (widened a hair)
   double* hi = nullptr;
-  uint8_t* is_big = nullptr;  // per triangle: too wide for the grid
-  uint32_t* big = nullptr;    // their indices (at most big_cap)
+  // Per triangle: kOutside, too wide for the grid (then listed in big, at
+  // most big_cap); kWide, too wide for the reference cells.
+  uint8_t* is_big = nullptr;
+  uint32_t* big = nullptr;
   uint32_t nbig = 0, big_cap = 0;
   BoxGrid grid;
   double eps = 0;             // the boxes' widening
+  // The reference cell size of the last full check (1 / ref_inv_h): when
+  // more than ref_cap boxes outgrow its cells, a tracked call starts afresh.
+  // The grid's own cell size only sets the cost of finding the pairs.
+  double ref_inv_h = 1;
+  uint32_t ref_cap = 0;
   // mark_intersections_tracked: the crossing pairs (t < u) at the positions
   // of the last call, valid while tracked; touched: per triangle, scratch.
   uint32_t* pairs = nullptr;

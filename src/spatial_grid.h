@@ -180,22 +180,49 @@ class BoxGrid : public CellTable {
       const uint32_t hb = hash(x, y, z);
       const uint32_t pc = pack(x, y, z);
       for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
-        if (key_[k] == pc) f(ids_[k], c);
+        if (key_[k] == pc) f(ids_[k] & kIdMask, c);
+    });
+  }
+  // For a box [lo, hi] that fits: calls f(id) for the entries met in the
+  // cell holding the low corner of the intersection of the two boxes, the one
+  // cell where the pair counts; that cell is, per axis, the low cell of one
+  // of the two boxes, so an entry's low-cell bits and the query's decide
+  // without arithmetic. (An entry of an aliased cell may be reported; its box
+  // does not overlap the query's, which the caller tests.)
+  template <class F>
+  void for_each_owned_entry(const double* lo, const double* hi, F&& f) const {
+    const int64_t c0 = cell(lo[0]), c1 = cell(lo[1]), c2 = cell(lo[2]);
+    for_each_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+      const uint32_t low = uint32_t(x == c0) | uint32_t(y == c1) << 1 | uint32_t(z == c2) << 2;
+      const uint32_t hb = hash(x, y, z);
+      const uint32_t pc = pack(x, y, z);
+      for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
+        if (key_[k] == pc && ((ids_[k] >> kLowShift) | low) == 7) f(ids_[k] & kIdMask);
     });
   }
 
-  // Calls f(i, j, key) for every two entries i < j (box ids) of one bucket
-  // with the same packed cell key, walking the table in order (no lookups).
-  // Cells whose keys alias share a bucket and a key: the caller tests that
-  // key == packed_cell() of the cell where the pair counts. Stops when f
-  // returns true; returns whether it did.
+  // Calls f(i, j) for every two entries i < j (box ids) of one bucket with
+  // the same packed cell key that are met in the cell holding the low corner
+  // of their boxes' intersection (the one cell where the pair counts): per
+  // axis that cell is the low cell of one of the two boxes, read from the
+  // entries' low-cell bits. Walks the table in order (no lookups). Cells
+  // whose keys alias share a bucket and a key; their boxes do not overlap,
+  // which the caller tests. Stops when f returns true; returns whether it did.
   template <class F>
   bool for_each_cell_pair(F&& f) const {
     for (uint32_t hb = 0; hb < table_; ++hb) {
       const uint32_t e = start_[hb + 1];
-      for (uint32_t k = start_[hb]; k + 1 < e; ++k)
-        for (uint32_t l = k + 1; l < e; ++l)
-          if (key_[l] == key_[k] && f(ids_[k], ids_[l], key_[k])) return true;
+      for (uint32_t k = start_[hb]; k + 1 < e; ++k) {
+        const uint32_t kk = key_[k], ik = ids_[k];
+        if ((ik >> kLowShift) == 7) {
+          for (uint32_t l = k + 1; l < e; ++l)
+            if (key_[l] == kk && f(ik & kIdMask, ids_[l] & kIdMask)) return true;
+        } else {
+          for (uint32_t l = k + 1; l < e; ++l)
+            if (key_[l] == kk && ((ids_[l] | ik) >> kLowShift) == 7 && f(ik & kIdMask, ids_[l] & kIdMask))
+              return true;
+        }
+      }
     }
     return false;
   }
@@ -211,6 +238,10 @@ class BoxGrid : public CellTable {
 
   uint32_t* key_ = nullptr;  // kMaxEntries per box: packed cell of ids_[k]
   double h_ = 1;
+  // ids_[k]: the box id, and in the top bits, per axis, whether the entry's
+  // cell is the box's low cell (ids stay below 2^29).
+  static constexpr int kLowShift = 29;
+  static constexpr uint32_t kIdMask = (1u << kLowShift) - 1;
 };
 
 template <class Keep>
@@ -225,9 +256,11 @@ void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& k
   starts();
   for (uint32_t i = 0; i < count; ++i) {
     if (!entered(i)) continue;
-    for_each_cell_of(lo + 3 * size_t(i), hi + 3 * size_t(i), [&](int64_t x, int64_t y, int64_t z) {
+    const double* l = lo + 3 * size_t(i);
+    const int64_t c0 = cell(l[0]), c1 = cell(l[1]), c2 = cell(l[2]);
+    for_each_cell_of(l, hi + 3 * size_t(i), [&](int64_t x, int64_t y, int64_t z) {
       const uint32_t k = start_[hash(x, y, z)]++;
-      ids_[k] = i;
+      ids_[k] = i | (uint32_t(x == c0) | uint32_t(y == c1) << 1 | uint32_t(z == c2) << 2) << kLowShift;
       key_[k] = pack(x, y, z);
     });
   }
