@@ -21,6 +21,7 @@ void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
   tris = a.alloc<uint32_t>(size_t(3) * nt);
   centroid = a.alloc<double>(size_t(3) * nt);
   radius = a.alloc<double>(nt);
+  normal = a.alloc<double>(size_t(3) * nt);
   lo = a.alloc<double>(size_t(3) * nt);
   hi = a.alloc<double>(size_t(3) * nt);
   big_cap = nt / kBigShare + 16;
@@ -58,7 +59,22 @@ inline __attribute__((always_inline)) bool segment_crosses(const double* p, cons
   return (e0 > 0 && e1 > 0 && e2 > 0) || (e0 < 0 && e1 < 0 && e2 < 0);
 }
 
-bool triangles_cross(const double* x, const uint32_t* a, const uint32_t* b) {
+// Whether p and q lie, beyond doubt, strictly on one side of the plane of
+// the triangle with normal n at o: n . (p - o) and n . (q - o) exceed tol
+// with one sign. tol = 1e-13 D^3, D the largest extent of a box holding the
+// four points: the exact orientation of (triangle, p) differs from this
+// estimate by at most ~50 eps D^3 and from any of the pair test's orient()
+// evaluations of it (any argument order, all differences at most D) by at
+// most ~50 eps D^3 too, so past tol every evaluation has the estimate's sign.
+inline bool same_side_certain(const double* n, const double* o, const double* p, const double* q, double tol) {
+  const double dp = n[0] * (p[0] - o[0]) + n[1] * (p[1] - o[1]) + n[2] * (p[2] - o[2]);
+  const double dq = n[0] * (q[0] - o[0]) + n[1] * (q[1] - o[1]) + n[2] * (q[2] - o[2]);
+  return (dp > tol && dq > tol) || (dp < -tol && dq < -tol);
+}
+
+bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint32_t u) {
+  const uint32_t* a = s.tris + 3 * size_t(t);
+  const uint32_t* b = s.tris + 3 * size_t(u);
   int shared = 0, sa = -1, sb = -1;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
@@ -68,6 +84,29 @@ bool triangles_cross(const double* x, const uint32_t* a, const uint32_t* b) {
         sb = j;
       }
   if (shared >= 2) return false;  // neighbours across an edge: the fold test's business
+  if (shared == 1) {
+    // Sharing vertex v only, the test below can report a crossing only when
+    // the far vertices of each straddle the other's plane, as computed: a
+    // far edge crossing the other triangle needs its ends on both sides of
+    // that plane, and its line inside the triangle needs the two edges at v
+    // on opposite sides of the plane of the far edge and v, the first
+    // triangle's plane. So when either pair of far vertices lies beyond
+    // doubt on one side of the other's plane, the answer is no.
+    const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t);
+    const double *lu = s.lo + 3 * size_t(u), *hu = s.hi + 3 * size_t(u);
+    double D = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double e = (ht[k] > hu[k] ? ht[k] : hu[k]) - (lt[k] < lu[k] ? lt[k] : lu[k]);
+      D = e > D ? e : D;
+    }
+    if (D > 1e-80 && D < 1e100) {
+      const double tol = 1e-13 * D * D * D;
+      auto P = [&](uint32_t v) { return x + 3 * size_t(v); };
+      if (same_side_certain(s.normal + 3 * size_t(t), P(a[0]), P(b[(sb + 1) % 3]), P(b[(sb + 2) % 3]), tol) ||
+          same_side_certain(s.normal + 3 * size_t(u), P(b[0]), P(a[(sa + 1) % 3]), P(a[(sa + 2) % 3]), tol))
+        return false;
+    }
+  }
   auto P = [&](uint32_t v) { return x + 3 * size_t(v); };
   const double *A[3] = {P(a[0]), P(a[1]), P(a[2])}, *B[3] = {P(b[0]), P(b[1]), P(b[2])};
   if (shared == 1) {
@@ -112,6 +151,12 @@ void prepare(const double* x, TriangleScratch& s, uint32_t t, double eps) {
     r2 = std::fmax(r2, d2);
   }
   s.radius[t] = std::sqrt(r2);
+  const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+  const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+  double* n = s.normal + 3 * size_t(t);
+  n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+  n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+  n[2] = e1[0] * e2[1] - e1[1] * e2[0];
 }
 
 // Candidate enumeration over the prepared triangles and the grid.
@@ -144,9 +189,9 @@ struct Pairs {
     const double dc2 = (cu[0] - ct[0]) * (cu[0] - ct[0]) + (cu[1] - ct[1]) * (cu[1] - ct[1]) + (cu[2] - ct[2]) * (cu[2] - ct[2]);
     const double reach = s.radius[t] + s.radius[u];
     if (dc2 > reach * reach) return false;
+    if (!triangles_cross(x, s, t, u)) return false;
     const uint32_t* a = s.tris + 3 * size_t(t);
     const uint32_t* b = s.tris + 3 * size_t(u);
-    if (!triangles_cross(x, a, b)) return false;
     ++count;
     if (!mark) return true;
     for (int k = 0; k < 3; ++k) mark[a[k]] = mark[b[k]] = 1;
@@ -214,19 +259,23 @@ bool fits_at(double inv_h, const double* lo, const double* hi) {
 }
 
 // The grid at cell size h or the smallest doubling of it that leaves at
-// most big_cap boxes outside; the big list.
-void layout_enum(const CubeSphere& m, TriangleScratch& s, double h) {
+// most big_cap boxes outside; the big list. With only (not nullptr) and h
+// the grid's cell size, only the boxes with only[t] != 0 changed since.
+void layout_enum(const CubeSphere& m, TriangleScratch& s, double h, const uint8_t* only = nullptr) {
   const uint32_t nt = m.triangle_count();
   for (;;) {
     s.grid.set_cell_size(h);
     s.nbig = 0;
     for (uint32_t t = 0; t < nt; ++t) {
-      const bool out = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
-      s.is_big[t] = uint8_t((s.is_big[t] & ~kOutside) | (out ? kOutside : 0));
-      s.nbig += out;
+      if (!only || only[t]) {
+        const bool out = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+        s.is_big[t] = uint8_t((s.is_big[t] & ~kOutside) | (out ? kOutside : 0));
+      }
+      s.nbig += s.is_big[t] & kOutside;
     }
     if (s.nbig <= s.big_cap) break;
     h *= 2;
+    only = nullptr;
   }
   uint32_t k = 0;
   for (uint32_t t = 0; t < nt; ++t)
@@ -346,7 +395,7 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
       wide += (s.is_big[t] & kWide) != 0;
     }
     if (wide > s.ref_cap) return full_check(m, x, s, mark, true);
-    layout_enum(m, s, s.grid.cell_size());
+    layout_enum(m, s, s.grid.cell_size(), s.touched);
   }
   // Pairs between untouched triangles stand; the others are found afresh.
   Pairs P{m, x, s, mark, true};

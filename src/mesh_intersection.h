@@ -18,6 +18,7 @@ struct TriangleScratch {
   uint32_t* tris = nullptr;   // 3 per triangle
   double* centroid = nullptr; // 3 per triangle
   double* radius = nullptr;   // per triangle: farthest vertex from the centroid
+  double* normal = nullptr;   // 3 per triangle: (p1 - p0) x (p2 - p0)
   double* lo = nullptr;       // 3 per triangle: bounding box (widened a hair)
   double* hi = nullptr;
   // Per triangle: kOutside, too wide for the grid (then listed in big, at
