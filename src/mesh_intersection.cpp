@@ -72,6 +72,37 @@ inline bool same_side_certain(const double* n, const double* o, const double* p,
   return (dp > tol && dq > tol) || (dp < -tol && dq < -tol);
 }
 
+// Triangles t and u sharing exactly one vertex v: whether the far vertices of
+// one lie beyond doubt on one side of the other's plane. The exact test below
+// can report such a pair only when the far vertices of each straddle the
+// other's plane, as computed: a far edge crossing the other triangle needs its
+// ends on both sides of that plane, and its line inside the triangle needs
+// the two edges at v on opposite sides of the plane of the far edge and v,
+// the first triangle's plane. So when apart() holds, the answer is no.
+bool apart(const double* x, const TriangleScratch& s, uint32_t t, uint32_t u) {
+  const uint32_t* a = s.tris + 3 * size_t(t);
+  const uint32_t* b = s.tris + 3 * size_t(u);
+  int sa = 0, sb = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (a[i] == b[j]) {
+        sa = i;
+        sb = j;
+      }
+  const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t);
+  const double *lu = s.lo + 3 * size_t(u), *hu = s.hi + 3 * size_t(u);
+  double D = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double e = (ht[k] > hu[k] ? ht[k] : hu[k]) - (lt[k] < lu[k] ? lt[k] : lu[k]);
+    D = e > D ? e : D;
+  }
+  if (!(D > 1e-80 && D < 1e100)) return false;
+  const double tol = 1e-13 * D * D * D;
+  auto P = [&](uint32_t v) { return x + 3 * size_t(v); };
+  return same_side_certain(s.normal + 3 * size_t(t), P(a[0]), P(b[(sb + 1) % 3]), P(b[(sb + 2) % 3]), tol) ||
+         same_side_certain(s.normal + 3 * size_t(u), P(b[0]), P(a[(sa + 1) % 3]), P(a[(sa + 2) % 3]), tol);
+}
+
 bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint32_t u) {
   const uint32_t* a = s.tris + 3 * size_t(t);
   const uint32_t* b = s.tris + 3 * size_t(u);
@@ -84,29 +115,6 @@ bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint
         sb = j;
       }
   if (shared >= 2) return false;  // neighbours across an edge: the fold test's business
-  if (shared == 1) {
-    // Sharing vertex v only, the test below can report a crossing only when
-    // the far vertices of each straddle the other's plane, as computed: a
-    // far edge crossing the other triangle needs its ends on both sides of
-    // that plane, and its line inside the triangle needs the two edges at v
-    // on opposite sides of the plane of the far edge and v, the first
-    // triangle's plane. So when either pair of far vertices lies beyond
-    // doubt on one side of the other's plane, the answer is no.
-    const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t);
-    const double *lu = s.lo + 3 * size_t(u), *hu = s.hi + 3 * size_t(u);
-    double D = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double e = (ht[k] > hu[k] ? ht[k] : hu[k]) - (lt[k] < lu[k] ? lt[k] : lu[k]);
-      D = e > D ? e : D;
-    }
-    if (D > 1e-80 && D < 1e100) {
-      const double tol = 1e-13 * D * D * D;
-      auto P = [&](uint32_t v) { return x + 3 * size_t(v); };
-      if (same_side_certain(s.normal + 3 * size_t(t), P(a[0]), P(b[(sb + 1) % 3]), P(b[(sb + 2) % 3]), tol) ||
-          same_side_certain(s.normal + 3 * size_t(u), P(b[0]), P(a[(sa + 1) % 3]), P(a[(sa + 2) % 3]), tol))
-        return false;
-    }
-  }
   auto P = [&](uint32_t v) { return x + 3 * size_t(v); };
   const double *A[3] = {P(a[0]), P(a[1]), P(a[2])}, *B[3] = {P(b[0]), P(b[1]), P(b[2])};
   if (shared == 1) {
@@ -183,13 +191,28 @@ struct Pairs {
   }
   // A pair with overlapping boxes, t < u: the prefilter of bounding spheres,
   // then the exact crossing test. Returns true to stop (first pair, no mark).
+  // Pairs sharing one vertex are left to fan_pairs(), pairs sharing an edge
+  // are never tested (the fold test's business).
   bool consider(uint32_t t, uint32_t u) {
+    if (shared_vertices(t, u) != 0) return false;
+    if (!spheres_meet(t, u) || !triangles_cross(x, s, t, u)) return false;
+    return hit(t, u);
+  }
+  // The same for t < u sharing exactly one vertex (their boxes overlap: both
+  // hold it). The tests only ever clear a pair, so their order is free.
+  bool consider_adjacent(uint32_t t, uint32_t u) {
+    if (apart(x, s, t, u) || !spheres_meet(t, u) || !triangles_cross(x, s, t, u)) return false;
+    return hit(t, u);
+  }
+  bool spheres_meet(uint32_t t, uint32_t u) const {
     const double* cu = s.centroid + 3 * size_t(u);
     const double* ct = s.centroid + 3 * size_t(t);
     const double dc2 = (cu[0] - ct[0]) * (cu[0] - ct[0]) + (cu[1] - ct[1]) * (cu[1] - ct[1]) + (cu[2] - ct[2]) * (cu[2] - ct[2]);
     const double reach = s.radius[t] + s.radius[u];
-    if (dc2 > reach * reach) return false;
-    if (!triangles_cross(x, s, t, u)) return false;
+    return !(dc2 > reach * reach);
+  }
+  // A crossing pair t < u: count, mark, record.
+  bool hit(uint32_t t, uint32_t u) {
     const uint32_t* a = s.tris + 3 * size_t(t);
     const uint32_t* b = s.tris + 3 * size_t(u);
     ++count;
@@ -206,7 +229,79 @@ struct Pairs {
     }
     return false;
   }
+  // Every pair of triangles sharing exactly one vertex v, found in v's fan
+  // (the triangles of its four faces that hold it), each once; with touched,
+  // only the pairs with a touched triangle.
+  bool fan_pairs(const uint8_t* touched) {
+    auto P = [&](uint32_t w) { return x + 3 * size_t(w); };
+    for (uint32_t v = 0; v < m.nv; ++v) {
+      uint32_t fan[8], id[8][3];
+      int k = 0;
+      bool any = !touched;
+      for (int i = 0; i < 4; ++i) {
+        const uint32_t f = m.vfaces[4 * size_t(v) + i];
+        if (f == kNone) continue;
+        const uint32_t t0 = first_triangle(m, f);
+        const int c = m.faces[4 * size_t(f) + 3] == kNone ? 1 : 2;
+        for (int j = 0; j < c; ++j) {
+          const uint32_t* q = s.tris + 3 * size_t(t0 + j);
+          if (q[0] != v && q[1] != v && q[2] != v) continue;
+          fan[k] = t0 + j;
+          id[k][0] = q[0];
+          id[k][1] = q[1];
+          id[k][2] = q[2];
+          any = any || touched[t0 + j];
+          ++k;
+        }
+      }
+      if (k < 2 || !any) continue;
+      // One rounding bound for the whole fan: D spans the boxes of all its
+      // triangles, so every four of their points (apart()'s condition).
+      double lo[3] = {s.lo[3 * size_t(fan[0])], s.lo[3 * size_t(fan[0]) + 1], s.lo[3 * size_t(fan[0]) + 2]};
+      double hi[3] = {s.hi[3 * size_t(fan[0])], s.hi[3 * size_t(fan[0]) + 1], s.hi[3 * size_t(fan[0]) + 2]};
+      for (int i = 1; i < k; ++i)
+        for (int a = 0; a < 3; ++a) {
+          const double l = s.lo[3 * size_t(fan[i]) + a], h = s.hi[3 * size_t(fan[i]) + a];
+          lo[a] = l < lo[a] ? l : lo[a];
+          hi[a] = h > hi[a] ? h : hi[a];
+        }
+      double D = 0;
+      for (int a = 0; a < 3; ++a) D = hi[a] - lo[a] > D ? hi[a] - lo[a] : D;
+      const bool filter = D > 1e-80 && D < 1e100;
+      const double tol = filter ? 1e-13 * D * D * D : 0.0;
+      for (int i = 0; i < k; ++i)
+        for (int j = i + 1; j < k; ++j) {
+          const int ti = fan[i] < fan[j] ? i : j, ui = fan[i] < fan[j] ? j : i;
+          const uint32_t t = fan[ti], u = fan[ui];
+          if (touched && !touched[t] && !touched[u]) continue;
+          const uint32_t *a = id[ti], *b = id[ui];
+          int shared = 0, sa = 0, sb = 0;
+          for (int p = 0; p < 3; ++p)
+            for (int q = 0; q < 3; ++q)
+              if (a[p] == b[q]) {
+                ++shared;
+                sa = p;
+                sb = q;
+              }
+          if (shared != 1) continue;
+          if (filter &&
+              (same_side_certain(s.normal + 3 * size_t(t), P(a[0]), P(b[(sb + 1) % 3]), P(b[(sb + 2) % 3]), tol) ||
+               same_side_certain(s.normal + 3 * size_t(u), P(b[0]), P(a[(sa + 1) % 3]), P(a[(sa + 2) % 3]), tol)))
+            continue;
+          if (!spheres_meet(t, u) || !triangles_cross(x, s, t, u)) continue;
+          if (hit(t, u)) return true;
+        }
+    }
+    return false;
+  }
   bool ordered(uint32_t t, uint32_t u) { return t < u ? consider(t, u) : consider(u, t); }
+  int shared_vertices(uint32_t t, uint32_t u) const {
+    const uint32_t* a = s.tris + 3 * size_t(t);
+    const uint32_t* b = s.tris + 3 * size_t(u);
+    int shared = 0;
+    for (int i = 0; i < 3; ++i) shared += (a[i] == b[0]) + (a[i] == b[1]) + (a[i] == b[2]);
+    return shared;
+  }
 
   // Every pair of a big box t with a grid box u where skip(u) is false, through
   // the cells t overlaps, or through all boxes when that would visit more cells
@@ -230,13 +325,14 @@ struct Pairs {
   // Every pair of grid boxes, by cells; stops at the first crossing pair
   // without mark.
   bool grid_pairs() {
-    return s.grid.for_each_cell_pair([&](uint32_t t, uint32_t u) { return overlap(t, u) && consider(t, u); });
+    return s.grid.for_each_overlapping_cell_pair(s.lo, s.hi, s.tris,
+                                                 [&](uint32_t t, uint32_t u) { return consider(t, u); });
   }
   // The same over the pairs with keep(t, u) only.
   template <class Keep>
   bool grid_pairs_with(Keep&& keep) {
-    return s.grid.for_each_cell_pair(
-        [&](uint32_t t, uint32_t u) { return keep(t, u) && overlap(t, u) && consider(t, u); });
+    return s.grid.for_each_overlapping_cell_pair(s.lo, s.hi, s.tris,
+                                                 [&](uint32_t t, uint32_t u) { return keep(t, u) && consider(t, u); });
   }
   // Every pair of a grid box t with a grid box u where skip(u) is false.
   template <class Skip>
@@ -333,6 +429,7 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
   s.npairs = 0;
   s.tracked = record;
   Pairs P{m, x, s, mark, record};
+  if (P.fan_pairs(nullptr)) return P.count;
   auto none = [](uint32_t) { return false; };
   for (uint32_t i = 0; i < s.nbig; ++i) {
     const uint32_t t = s.big[i];
@@ -418,6 +515,7 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
   // from the lower index). With most boxes touched (small meshes, wide
   // tapers), the grid pairs come from one walk over the cells instead, the
   // same pairs: those with a touched box.
+  P.fan_pairs(s.touched);
   const bool walk = 2 * size_t(ntouched) > nt;
   if (walk) P.grid_pairs_with([&](uint32_t t, uint32_t u) { return (s.touched[t] | s.touched[u]) != 0; });
   for (uint32_t t = 0; t < nt; ++t) {

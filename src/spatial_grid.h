@@ -226,6 +226,61 @@ class BoxGrid : public CellTable {
     }
     return false;
   }
+  // for_each_cell_pair restricted to the pairs whose boxes (lo, hi: 3 per
+  // box id, as built) overlap, closed, and whose labels (tris: 3 per box id)
+  // differ: the same pairs in the same order, each bucket's boxes and labels
+  // read once.
+  template <class F>
+  bool for_each_overlapping_cell_pair(const double* lo, const double* hi, const uint32_t* tris, F&& f) const {
+    constexpr uint32_t kLocal = 64;
+    double b[kLocal][6];
+    uint32_t v[kLocal][3];
+    auto disjoint = [](const uint32_t* p, const uint32_t* q) {
+      return p[0] != q[0] && p[0] != q[1] && p[0] != q[2] && p[1] != q[0] && p[1] != q[1] && p[1] != q[2] &&
+             p[2] != q[0] && p[2] != q[1] && p[2] != q[2];
+    };
+    for (uint32_t hb = 0; hb < table_; ++hb) {
+      const uint32_t k0 = start_[hb], e = start_[hb + 1];
+      if (e - k0 < 2) continue;
+      if (e - k0 > kLocal) {
+        for (uint32_t k = k0; k + 1 < e; ++k) {
+          const uint32_t kk = key_[k], ik = ids_[k];
+          const double *lk = lo + 3 * size_t(ik & kIdMask), *hk = hi + 3 * size_t(ik & kIdMask);
+          for (uint32_t l = k + 1; l < e; ++l) {
+            if (key_[l] != kk || ((ids_[l] | ik) >> kLowShift) != 7) continue;
+            const uint32_t il = ids_[l] & kIdMask;
+            const double *ll = lo + 3 * size_t(il), *hl = hi + 3 * size_t(il);
+            if (ll[0] > hk[0] || lk[0] > hl[0] || ll[1] > hk[1] || lk[1] > hl[1] || ll[2] > hk[2] || lk[2] > hl[2])
+              continue;
+            if (!disjoint(tris + 3 * size_t(ik & kIdMask), tris + 3 * size_t(il))) continue;
+            if (f(ik & kIdMask, il)) return true;
+          }
+        }
+        continue;
+      }
+      for (uint32_t k = k0; k < e; ++k) {
+        const uint32_t id = ids_[k] & kIdMask;
+        for (int a = 0; a < 3; ++a) {
+          b[k - k0][a] = lo[3 * size_t(id) + a];
+          b[k - k0][3 + a] = hi[3 * size_t(id) + a];
+          v[k - k0][a] = tris[3 * size_t(id) + a];
+        }
+      }
+      for (uint32_t k = k0; k + 1 < e; ++k) {
+        const uint32_t kk = key_[k], ik = ids_[k];
+        const double* bk = b[k - k0];
+        for (uint32_t l = k + 1; l < e; ++l) {
+          if (key_[l] != kk || ((ids_[l] | ik) >> kLowShift) != 7) continue;
+          const double* bl = b[l - k0];
+          if (bl[0] > bk[3] || bk[0] > bl[3] || bl[1] > bk[4] || bk[1] > bl[4] || bl[2] > bk[5] || bk[2] > bl[5])
+            continue;
+          if (!disjoint(v[k - k0], v[l - k0])) continue;
+          if (f(ik & kIdMask, ids_[l] & kIdMask)) return true;
+        }
+      }
+    }
+    return false;
+  }
   // The packed key of the cell holding point p.
   uint32_t packed_cell(const double* p) const { return pack(cell(p[0]), cell(p[1]), cell(p[2])); }
 
@@ -247,22 +302,33 @@ class BoxGrid : public CellTable {
 template <class Keep>
 void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& keep) {
   clear_counts();
-  auto entered = [&](uint32_t i) { return keep(i) && fits(lo + 3 * size_t(i), hi + 3 * size_t(i)); };
+  // Per box: its cell range, whether it fits (at most two cells per axis).
+  auto range = [&](uint32_t i, int64_t* a, int64_t* b) {
+    if (!keep(i)) return false;
+    for (int k = 0; k < 3; ++k) {
+      a[k] = cell(lo[3 * size_t(i) + k]);
+      b[k] = cell(hi[3 * size_t(i) + k]);
+      if (!(b[k] - a[k] <= 1)) return false;
+    }
+    return true;
+  };
+  int64_t a[3], b[3];
   for (uint32_t i = 0; i < count; ++i) {
-    if (!entered(i)) continue;
-    for_each_cell_of(lo + 3 * size_t(i), hi + 3 * size_t(i),
-                     [&](int64_t x, int64_t y, int64_t z) { ++start_[hash(x, y, z) + 1]; });
+    if (!range(i, a, b)) continue;
+    for (int64_t z = a[2]; z <= b[2]; ++z)
+      for (int64_t y = a[1]; y <= b[1]; ++y)
+        for (int64_t x = a[0]; x <= b[0]; ++x) ++start_[hash(x, y, z) + 1];
   }
   starts();
   for (uint32_t i = 0; i < count; ++i) {
-    if (!entered(i)) continue;
-    const double* l = lo + 3 * size_t(i);
-    const int64_t c0 = cell(l[0]), c1 = cell(l[1]), c2 = cell(l[2]);
-    for_each_cell_of(l, hi + 3 * size_t(i), [&](int64_t x, int64_t y, int64_t z) {
-      const uint32_t k = start_[hash(x, y, z)]++;
-      ids_[k] = i | (uint32_t(x == c0) | uint32_t(y == c1) << 1 | uint32_t(z == c2) << 2) << kLowShift;
-      key_[k] = pack(x, y, z);
-    });
+    if (!range(i, a, b)) continue;
+    for (int64_t z = a[2]; z <= b[2]; ++z)
+      for (int64_t y = a[1]; y <= b[1]; ++y)
+        for (int64_t x = a[0]; x <= b[0]; ++x) {
+          const uint32_t k = start_[hash(x, y, z)]++;
+          ids_[k] = i | (uint32_t(x == a[0]) | uint32_t(y == a[1]) << 1 | uint32_t(z == a[2]) << 2) << kLowShift;
+          key_[k] = pack(x, y, z);
+        }
   }
   restore();
 }
