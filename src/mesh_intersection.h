@@ -43,6 +43,14 @@ struct TriangleScratch {
   uint8_t* face_flags = nullptr;
   uint8_t* vertex_flags = nullptr;
   uint8_t* vertex_marks = nullptr;
+  // For the step guard's fold test: per face, the normals of its triangles
+  // (3 each, face_triangles() order) as split at the old positions and
+  // computed there, and as split and computed at the tested positions, and
+  // the two splits (1: the 1-3 diagonal).
+  double* face_n_old = nullptr;
+  double* face_n_new = nullptr;
+  uint8_t* face_alt_old = nullptr;
+  uint8_t* face_alt_new = nullptr;
   void carve(Arena& a, const CubeSphere& m);
 };
 
