@@ -361,13 +361,15 @@ bool fits_at(double inv_h, const double* lo, const double* hi) {
 // The grid at cell size h or the smallest doubling of it that leaves at
 // most big_cap boxes outside; the big list. With only (not nullptr) and h
 // the grid's cell size, only the boxes with only[t] != 0 changed since.
-void layout_enum(const CubeSphere& m, TriangleScratch& s, double h, const uint8_t* only = nullptr) {
+// With known, the kOutside bits are already those of cell size h.
+void layout_enum(const CubeSphere& m, TriangleScratch& s, double h, const uint8_t* only = nullptr,
+                 bool known = false) {
   const uint32_t nt = m.triangle_count();
   for (;;) {
     s.grid.set_cell_size(h);
     s.nbig = 0;
     for (uint32_t t = 0; t < nt; ++t) {
-      if (!only || only[t]) {
+      if (!known && (!only || only[t])) {
         const bool out = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
         s.is_big[t] = uint8_t((s.is_big[t] & ~kOutside) | (out ? kOutside : 0));
       }
@@ -376,6 +378,7 @@ void layout_enum(const CubeSphere& m, TriangleScratch& s, double h, const uint8_
     if (s.nbig <= s.big_cap) break;
     h *= 2;
     only = nullptr;
+    known = false;
   }
   uint32_t k = 0;
   for (uint32_t t = 0; t < nt; ++t)
@@ -392,9 +395,11 @@ void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double r
   for (;;) {
     const double inv_h = 1.0 / h;
     uint32_t wide = 0;
+    // At h0 the test is the grid's own (BoxGrid::fits at 1 / h0): both bits.
+    const bool first = h == h0;
     for (uint32_t t = 0; t < nt; ++t) {
       const bool w = !fits_at(inv_h, s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
-      s.is_big[t] = w ? kWide : 0;
+      s.is_big[t] = first ? (w ? kWide | kOutside : 0) : uint8_t((s.is_big[t] & kOutside) | (w ? kWide : 0));
       wide += w;
     }
     if (wide <= s.ref_cap) {
@@ -403,7 +408,7 @@ void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double r
     }
     h *= 2;
   }
-  layout_enum(m, s, h0);
+  layout_enum(m, s, h0, nullptr, true);
 }
 
 // The whole check from scratch; with record, also keeps the crossing pairs

@@ -270,11 +270,12 @@ class BoxGrid : public CellTable {
         const uint32_t kk = key_[k], ik = ids_[k];
         const double* bk = b[k - k0];
         for (uint32_t l = k + 1; l < e; ++l) {
-          if (key_[l] != kk || ((ids_[l] | ik) >> kLowShift) != 7) continue;
+          // All tests evaluated, one branch (they mostly fail).
           const double* bl = b[l - k0];
-          if (bl[0] > bk[3] || bk[0] > bl[3] || bl[1] > bk[4] || bk[1] > bl[4] || bl[2] > bk[5] || bk[2] > bl[5])
-            continue;
-          if (!disjoint(v[k - k0], v[l - k0])) continue;
+          const bool meet = (key_[l] == kk) & (((ids_[l] | ik) >> kLowShift) == 7) & !(bl[0] > bk[3]) &
+                            !(bk[0] > bl[3]) & !(bl[1] > bk[4]) & !(bk[1] > bl[4]) & !(bl[2] > bk[5]) &
+                            !(bk[2] > bl[5]);
+          if (!meet || !disjoint(v[k - k0], v[l - k0])) continue;
           if (f(ik & kIdMask, ids_[l] & kIdMask)) return true;
         }
       }
