@@ -4,6 +4,7 @@
 // every point keeps its packed cell coordinates, so a bucket shared by two
 // cells of one query (a hash collision) is not read twice.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 
 #include "arena.h"
@@ -232,7 +233,11 @@ class BoxGrid : public CellTable {
   // read once.
   template <class F>
   bool for_each_overlapping_cell_pair(const double* lo, const double* hi, const uint32_t* tris, F&& f) const {
-    constexpr uint32_t kLocal = 64;
+    constexpr uint32_t kLocal = 64, kSweep = 1024;
+    struct Sweep {
+      double x;
+      uint32_t k;
+    };
     double b[kLocal][6];
     uint32_t v[kLocal][3];
     auto disjoint = [](const uint32_t* p, const uint32_t* q) {
@@ -242,6 +247,35 @@ class BoxGrid : public CellTable {
     for (uint32_t hb = 0; hb < table_; ++hb) {
       const uint32_t k0 = start_[hb], e = start_[hb + 1];
       if (e - k0 < 2) continue;
+      if (e - k0 > kLocal && e - k0 <= kSweep) {
+        // A crowded bucket (a crumpled region of small triangles): its
+        // entries by the low x of their boxes, each paired only with those
+        // starting before it ends (the same pairs, in another order; f gets
+        // the lower id first).
+        Sweep w[kSweep];
+        const uint32_t c = e - k0;
+        for (uint32_t k = 0; k < c; ++k) {
+          const uint32_t id = ids_[k0 + k] & kIdMask;
+          w[k] = Sweep{lo[3 * size_t(id)], k0 + k};
+        }
+        std::sort(w, w + c, [](const Sweep& p, const Sweep& q) { return p.x < q.x || (p.x == q.x && p.k < q.k); });
+        for (uint32_t i = 0; i + 1 < c; ++i) {
+          const uint32_t k = w[i].k, kk = key_[k], ik = ids_[k];
+          const double *lk = lo + 3 * size_t(ik & kIdMask), *hk = hi + 3 * size_t(ik & kIdMask);
+          for (uint32_t j = i + 1; j < c && !(w[j].x > hk[0]); ++j) {
+            const uint32_t l = w[j].k;
+            if (key_[l] != kk || ((ids_[l] | ik) >> kLowShift) != 7) continue;
+            const uint32_t il = ids_[l] & kIdMask;
+            const double *ll = lo + 3 * size_t(il), *hl = hi + 3 * size_t(il);
+            if (ll[0] > hk[0] || lk[0] > hl[0] || ll[1] > hk[1] || lk[1] > hl[1] || ll[2] > hk[2] || lk[2] > hl[2])
+              continue;
+            if (!disjoint(tris + 3 * size_t(ik & kIdMask), tris + 3 * size_t(il))) continue;
+            const uint32_t a = ik & kIdMask;
+            if (a < il ? f(a, il) : f(il, a)) return true;
+          }
+        }
+        continue;
+      }
       if (e - k0 > kLocal) {
         for (uint32_t k = k0; k + 1 < e; ++k) {
           const uint32_t kk = key_[k], ik = ids_[k];
