@@ -153,14 +153,17 @@ void prepare(const double* x, TriangleScratch& s, uint32_t t, double eps) {
   const double *p0 = x + 3 * size_t(id[0]), *p1 = x + 3 * size_t(id[1]), *p2 = x + 3 * size_t(id[2]);
   for (int a = 0; a < 3; ++a) {
     c[a] = (p0[a] + p1[a] + p2[a]) / 3.0;
-    lo[a] = std::fmin(p0[a], std::fmin(p1[a], p2[a])) - eps;
-    hi[a] = std::fmax(p0[a], std::fmax(p1[a], p2[a])) + eps;
+    // Finite positions: these comparisons give fmin/fmax's values (the sign
+    // of a zero aside, which no test reads), without a libm call.
+    const double l01 = p1[a] < p0[a] ? p1[a] : p0[a], h01 = p1[a] > p0[a] ? p1[a] : p0[a];
+    lo[a] = (p2[a] < l01 ? p2[a] : l01) - eps;
+    hi[a] = (p2[a] > h01 ? p2[a] : h01) + eps;
   }
   double r2 = 0;
   for (int k = 0; k < 3; ++k) {
     double d2 = 0;
     for (int a = 0; a < 3; ++a) d2 += (x[3 * size_t(id[k]) + a] - c[a]) * (x[3 * size_t(id[k]) + a] - c[a]);
-    r2 = std::fmax(r2, d2);
+    r2 = d2 > r2 ? d2 : r2;
   }
   s.radius[t] = std::sqrt(r2);
   const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
@@ -413,10 +416,16 @@ void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double r
 
 // The whole check from scratch; with record, also keeps the crossing pairs
 // (mark must then be set).
-uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark, bool record) {
+uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark, bool record,
+                    const uint8_t* alt) {
   const uint32_t nt = m.triangle_count();
   s.tracked = false;
-  triangulate(m, x, s.tris);
+  if (alt) {
+    uint32_t t = 0;
+    for (uint32_t f = 0; f < m.nfaces; ++f) t += uint32_t(face_split(m, f, alt[f] != 0, s.tris + 3 * size_t(t)));
+  } else {
+    triangulate(m, x, s.tris);
+  }
   double rmax = 0, emean = 0;
   for (uint32_t t = 0; t < nt; ++t) {
     prepare(x, s, t, 0.0);
@@ -457,13 +466,14 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
 
 }  // namespace
 
-uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark) {
-  return full_check(m, x, s, mark, false);
+uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
+                            const uint8_t* alt) {
+  return full_check(m, x, s, mark, false, alt);
 }
 
 uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
-                                    const uint8_t* moved) {
-  if (!moved || !s.tracked) return full_check(m, x, s, mark, true);
+                                    const uint8_t* moved, const uint8_t* alt) {
+  if (!moved || !s.tracked) return full_check(m, x, s, mark, true, alt);
   const uint32_t nt = m.triangle_count();
   // Re-split and re-measure the faces around moved vertices.
   for (uint32_t t = 0; t < nt; ++t) s.touched[t] = 0;
@@ -475,7 +485,8 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
     for (int i = 0; i < k && !any; ++i) any = moved[q[i]] != 0;
     if (!any) continue;
     const uint32_t t0 = first_triangle(m, f);
-    const int c = face_triangles(m, f, s.tris + 3 * size_t(t0), x);
+    const int c = alt ? face_split(m, f, alt[f] != 0, s.tris + 3 * size_t(t0))
+                      : face_triangles(m, f, s.tris + 3 * size_t(t0), x);
     for (int i = 0; i < c; ++i) {
       s.touched[t0 + i] = 1;
       prepare(x, s, t0 + i, s.eps);
@@ -500,7 +511,7 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
       }
       wide += (s.is_big[t] & kWide) != 0;
     }
-    if (wide > s.ref_cap) return full_check(m, x, s, mark, true);
+    if (wide > s.ref_cap) return full_check(m, x, s, mark, true, alt);
     layout_enum(m, s, s.grid.cell_size(), s.touched);
   }
   // Pairs between untouched triangles stand; the others are found afresh.

@@ -57,7 +57,10 @@ struct TriangleScratch {
 // Marks (mark[v] = 1, when mark is not nullptr) the vertices of every
 // intersecting pair at positions x (3 per vertex) and returns the number of
 // pairs (stops at the first when mark is nullptr).
-uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark);
+// alt (optional): per face, its split at x as face_triangles() gives it
+// (1: the 1-3 diagonal), when the caller has it.
+uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
+                            const uint8_t* alt = nullptr);
 
 // The same with mark required and the pairs kept in s: when moved is given
 // and the previous call was tracked too, positions x may differ from that
@@ -65,6 +68,6 @@ uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratc
 // around them are tested again. Marks and count equal mark_intersections'.
 // Any mark_intersections() call in between ends the tracking.
 uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
-                                    const uint8_t* moved);
+                                    const uint8_t* moved, const uint8_t* alt = nullptr);
 
 }  // namespace ffseg

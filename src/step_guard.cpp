@@ -166,23 +166,6 @@ void cache_face(const CubeSphere& m, uint32_t f, const double* x, double* n, uin
   }
 }
 
-// face_triangles()' output for face f split as alt says.
-int split_of(const CubeSphere& m, uint32_t f, bool alt, uint32_t out[6]) {
-  const uint32_t* q = m.faces + 4 * size_t(f);
-  if (q[3] == kNone) {
-    out[0] = q[0]; out[1] = q[1]; out[2] = q[2];
-    return 1;
-  }
-  if (!alt) {
-    out[0] = q[0]; out[1] = q[1]; out[2] = q[2];
-    out[3] = q[0]; out[4] = q[2]; out[5] = q[3];
-  } else {
-    out[0] = q[1]; out[1] = q[2]; out[2] = q[3];
-    out[3] = q[1]; out[4] = q[3]; out[5] = q[0];
-  }
-  return 2;
-}
-
 // split_edge_normal() from the cache: the normal of the triangle of face f
 // (split tri, nt triangles; normals n) holding the directed edge a -> b.
 const double* cached_edge_normal(const uint32_t* tri, int nt, uint32_t a, uint32_t b, const double* n) {
@@ -201,7 +184,7 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
   const double* no = ts.face_n_old + 6 * size_t(f);
   const double* nn = ts.face_n_new + 6 * size_t(f);
   uint32_t tri[6] = {0, 0, 0, 0, 0, 0};
-  const int nt = split_of(m, f, alt_old, tri);
+  const int nt = face_split(m, f, alt_old, tri);
   for (int t = 0; t < nt; ++t) {
     const uint32_t* id = tri + 3 * t;
     const double* n0 = no + 3 * t;
@@ -216,7 +199,7 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
   const uint32_t* q = m.faces + 4 * size_t(f);
   const int k = q[3] == kNone ? 3 : 4;
   uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
-  const int ntn = split_of(m, f, alt_new, tn);
+  const int ntn = face_split(m, f, alt_new, tn);
   if (nt == 2) {
     if (cos_of(nn, nn + 3) < kFoldCos) {
       if (cos_of(no, no + 3) >= kFoldCos) bits |= kQuadFold;
@@ -227,11 +210,11 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
     if (g == kNone || g < f) continue;  // each shared edge once
     const uint32_t a = q[e], b = q[(e + 1) % k];
     uint32_t tg[6] = {0, 0, 0, 0, 0, 0};
-    const int ntg = split_of(m, g, ts.face_alt_new[g], tg);
+    const int ntg = face_split(m, g, ts.face_alt_new[g], tg);
     const double* nf = cached_edge_normal(tn, ntn, a, b, nn);
     const double* ng = cached_edge_normal(tg, ntg, b, a, ts.face_n_new + 6 * size_t(g));
     if (cos_of(nf, ng) >= kFoldCos) continue;
-    const int nto = split_of(m, g, ts.face_alt_old[g], tg);
+    const int nto = face_split(m, g, ts.face_alt_old[g], tg);
     nf = cached_edge_normal(tri, nt, a, b, no);
     ng = cached_edge_normal(tg, nto, b, a, ts.face_n_old + 6 * size_t(g));
     if (cos_of(nf, ng) >= kFoldCos) bits |= uint8_t(kEdgeFold << e);
@@ -248,7 +231,7 @@ bool any_violation(const CubeSphere& m, const double* xs, TriangleScratch& ts) {
 }
 
 bool violates(const CubeSphere& m, const double* xs, TriangleScratch& ts) {
-  return any_violation(m, xs, ts) || mark_intersections(m, xs, ts, nullptr) > 0;
+  return any_violation(m, xs, ts) || mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) > 0;
 }
 
 void relax(const CubeSphere& m, double* share, size_t v) {
@@ -322,7 +305,7 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
   uint32_t count = 0;
   for (uint32_t f = 0; f < m.nfaces; ++f)
     if (flags[f]) count += mark_offences(m, f, flags[f], x_old, mark, false);
-  return count + mark_intersections_tracked(m, xs, ts, mark, moved);
+  return count + mark_intersections_tracked(m, xs, ts, mark, moved, ts.face_alt_new);
 }
 
 }  // namespace
