@@ -242,7 +242,9 @@ struct Pairs {
   bool fan_pairs(const uint8_t* touched) {
     auto P = [&](uint32_t w) { return x + 3 * size_t(w); };
     for (uint32_t v = 0; v < m.nv; ++v) {
-      uint32_t fan[8], id[8][3];
+      // The fan: triangles holding v, each with its two far vertices in its
+      // cyclic order after v.
+      uint32_t fan[8], far[8][2];
       int k = 0;
       bool any = !touched;
       for (int i = 0; i < 4; ++i) {
@@ -252,11 +254,11 @@ struct Pairs {
         const int c = m.faces[4 * size_t(f) + 3] == kNone ? 1 : 2;
         for (int j = 0; j < c; ++j) {
           const uint32_t* q = s.tris + 3 * size_t(t0 + j);
-          if (q[0] != v && q[1] != v && q[2] != v) continue;
+          const int r = q[0] == v ? 0 : q[1] == v ? 1 : q[2] == v ? 2 : -1;
+          if (r < 0) continue;
           fan[k] = t0 + j;
-          id[k][0] = q[0];
-          id[k][1] = q[1];
-          id[k][2] = q[2];
+          far[k][0] = q[(r + 1) % 3];
+          far[k][1] = q[(r + 2) % 3];
           any = any || touched[t0 + j];
           ++k;
         }
@@ -278,22 +280,16 @@ struct Pairs {
       const double tol = filter ? 1e-13 * D * D * D : 0.0;
       for (int i = 0; i < k; ++i)
         for (int j = i + 1; j < k; ++j) {
+          // Sharing only v: no far vertex in common (else an edge).
+          if (far[i][0] == far[j][0] || far[i][0] == far[j][1] || far[i][1] == far[j][0] || far[i][1] == far[j][1])
+            continue;
           const int ti = fan[i] < fan[j] ? i : j, ui = fan[i] < fan[j] ? j : i;
           const uint32_t t = fan[ti], u = fan[ui];
           if (touched && !touched[t] && !touched[u]) continue;
-          const uint32_t *a = id[ti], *b = id[ui];
-          int shared = 0, sa = 0, sb = 0;
-          for (int p = 0; p < 3; ++p)
-            for (int q = 0; q < 3; ++q)
-              if (a[p] == b[q]) {
-                ++shared;
-                sa = p;
-                sb = q;
-              }
-          if (shared != 1) continue;
-          if (filter &&
-              (same_side_certain(s.normal + 3 * size_t(t), P(a[0]), P(b[(sb + 1) % 3]), P(b[(sb + 2) % 3]), tol) ||
-               same_side_certain(s.normal + 3 * size_t(u), P(b[0]), P(a[(sa + 1) % 3]), P(a[(sa + 2) % 3]), tol)))
+          if (filter && (same_side_certain(s.normal + 3 * size_t(t), P(s.tris[3 * size_t(t)]), P(far[ui][0]),
+                                           P(far[ui][1]), tol) ||
+                         same_side_certain(s.normal + 3 * size_t(u), P(s.tris[3 * size_t(u)]), P(far[ti][0]),
+                                           P(far[ti][1]), tol)))
             continue;
           if (!spheres_meet(t, u) || !triangles_cross(x, s, t, u)) continue;
           if (hit(t, u)) return true;
