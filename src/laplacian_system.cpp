@@ -14,9 +14,9 @@ constexpr uint16_t kDiag = 1u << 11;
 }
 
 void LaplacianProgram::carve(Arena& a, uint32_t nv) {
-  // Entries: the diagonal and each pair within distance 2 (at most 24 others
-  // per vertex), counted once.
-  cap = 13 * nv;
+  // Entries: the diagonal and each pair within distance 2, counted once: four
+  // neighbours and at most 4 x 3 at distance 2 per vertex (build() checks).
+  cap = 9 * nv;
   off = a.alloc<uint64_t>(cap);
   vert = a.alloc<uint32_t>(cap);
   code = a.alloc<uint16_t>(cap);
