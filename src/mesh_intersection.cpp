@@ -76,36 +76,13 @@ inline bool same_side_certain(const double* n, const double* o, const double* p,
   return (dp > tol && dq > tol) || (dp < -tol && dq < -tol);
 }
 
-// Triangles t and u sharing exactly one vertex v: whether the far vertices of
-// one lie beyond doubt on one side of the other's plane. The exact test below
-// can report such a pair only when the far vertices of each straddle the
-// other's plane, as computed: a far edge crossing the other triangle needs its
-// ends on both sides of that plane, and its line inside the triangle needs
-// the two edges at v on opposite sides of the plane of the far edge and v,
-// the first triangle's plane. So when apart() holds, the answer is no.
-bool apart(const double* x, const TriangleScratch& s, uint32_t t, uint32_t u) {
-  const uint32_t* a = s.tris + 3 * size_t(t);
-  const uint32_t* b = s.tris + 3 * size_t(u);
-  int sa = 0, sb = 0;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (a[i] == b[j]) {
-        sa = i;
-        sb = j;
-      }
-  const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t);
-  const double *lu = s.lo + 3 * size_t(u), *hu = s.hi + 3 * size_t(u);
-  double D = 0;
-  for (int k = 0; k < 3; ++k) {
-    const double e = (ht[k] > hu[k] ? ht[k] : hu[k]) - (lt[k] < lu[k] ? lt[k] : lu[k]);
-    D = e > D ? e : D;
-  }
-  if (!(D > 1e-80 && D < 1e100)) return false;
-  const double tol = 1e-13 * D * D * D;
-  auto P = [&](uint32_t v) { return x + 3 * size_t(v); };
-  return same_side_certain(s.normal + 3 * size_t(t), P(a[0]), P(b[(sb + 1) % 3]), P(b[(sb + 2) % 3]), tol) ||
-         same_side_certain(s.normal + 3 * size_t(u), P(b[0]), P(a[(sa + 1) % 3]), P(a[(sa + 2) % 3]), tol);
-}
+// Triangles sharing exactly one vertex v: the exact test below can report
+// such a pair only when the far vertices of each straddle the other's plane,
+// as computed: a far edge crossing the other triangle needs its ends on both
+// sides of that plane, and its line inside the triangle needs the two edges
+// at v on opposite sides of the plane of the far edge and v, the first
+// triangle's plane. So when the far vertices of one lie beyond doubt
+// (same_side_certain) on one side of the other's plane, the answer is no.
 
 bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint32_t u) {
   const uint32_t* a = s.tris + 3 * size_t(t);
@@ -205,12 +182,6 @@ struct Pairs {
     if (!spheres_meet(t, u) || !triangles_cross(x, s, t, u)) return false;
     return hit(t, u);
   }
-  // The same for t < u sharing exactly one vertex (their boxes overlap: both
-  // hold it). The tests only ever clear a pair, so their order is free.
-  bool consider_adjacent(uint32_t t, uint32_t u) {
-    if (apart(x, s, t, u) || !spheres_meet(t, u) || !triangles_cross(x, s, t, u)) return false;
-    return hit(t, u);
-  }
   bool spheres_meet(uint32_t t, uint32_t u) const {
     const double* cu = s.centroid + 3 * size_t(u);
     const double* ct = s.centroid + 3 * size_t(t);
@@ -265,7 +236,8 @@ struct Pairs {
       }
       if (k < 2 || !any) continue;
       // One rounding bound for the whole fan: D spans the boxes of all its
-      // triangles, so every four of their points (apart()'s condition).
+      // triangles, so every four of their points (same_side_certain()'s
+      // condition).
       double lo[3] = {s.lo[3 * size_t(fan[0])], s.lo[3 * size_t(fan[0]) + 1], s.lo[3 * size_t(fan[0]) + 2]};
       double hi[3] = {s.hi[3 * size_t(fan[0])], s.hi[3 * size_t(fan[0]) + 1], s.hi[3 * size_t(fan[0]) + 2]};
       for (int i = 1; i < k; ++i)
