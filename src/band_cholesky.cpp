@@ -632,6 +632,24 @@ void EnvelopeCholesky::clear() {
   }
 }
 
+void EnvelopeCholesky::assign_sorted(const uint64_t* off, const double* v, std::size_t count) {
+  factored_ = false;
+  bad_entry_ = false;
+  failed_row_ = -1;
+  if (!ready_) return;
+  // Group by group: zero its block, the padding rows' identity, then the
+  // values that fall in it (the block is still in cache).
+  std::size_t k = 0;
+  for (uint32_t g = 0; g < ngroups_; ++g) {
+    const uint32_t s = gstart_[g];
+    const uint64_t b = goff_[g], e = b + 4 * group_width(g, s);
+    std::memset(val_ + b, 0, (e - b) * sizeof(double));
+    for (uint32_t i = 4 * g; i < 4 * g + 4; ++i)
+      if (i >= n_ && i < npad_) val_[b + (i & 3u) * group_width(g, s) + (i - s)] = 1.0;
+    for (; k < count && off[k] < e; ++k) val_[off[k]] = v[k];
+  }
+}
+
 double EnvelopeCholesky::get(uint32_t i, uint32_t j) const {
   if (!ready_) return 0.0;
   const double* p = slot(i, j);

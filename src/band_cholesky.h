@@ -104,6 +104,15 @@ class EnvelopeCholesky {
     }
     *p += v;
   }
+  // Element offset of entry (i, j) in the storage, or -1 outside the
+  // envelope (original numbering; after init on a real arena).
+  int64_t offset_of(uint32_t i, uint32_t j) const {
+    const double* p = slot(i, j);
+    return p ? int64_t(p - val_) : -1;
+  }
+  // clear() followed by storing v[k] at offset off[k] (ascending, distinct,
+  // from offset_of()), in one pass over the storage.
+  void assign_sorted(const uint64_t* off, const double* v, std::size_t count);
   // Value currently stored at (i, j) (A before factor(), L after), original
   // numbering; 0 outside the envelope.
   double get(uint32_t i, uint32_t j) const;

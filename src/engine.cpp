@@ -93,6 +93,7 @@ void StepScratch::carve(Arena& a, const CubeSphere& m) {
   folds.carve(a, m.nv);
   triangles.carve(a, m);
   pattern.carve(a, m.nv);
+  program.carve(a, m.nv);
 }
 
 void Engine::layout(Arena& a) {
@@ -106,6 +107,7 @@ void Engine::layout(Arena& a) {
                             solver_capacity(mesh_.n, mesh_.nv)) &&
       real2)
     solver_failed_ = true;
+  if (real2 && !solver_failed_) scratch_.program.build(mesh_, scratch_.solver);
   objects_ = a.alloc<Object>(cfg_.max_objects);
   Object probe;  // measuring pass: carve through a throw-away object
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
@@ -519,7 +521,7 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
     }
     s.weight[v] = w;
   }
-  assemble_laplacian(mesh_, params_.lambda_laplacian, params_.lambda_uniform, s.weight, s.solver);
+  assemble_laplacian(mesh_, params_.lambda_laplacian, params_.lambda_uniform, s.weight, s.solver, &s.program);
   // The anchor pulls towards u_i, the positional term towards p_i: one target
   // per vertex, the weighted mean of the two.
   for (uint32_t v = 0; v < nv; ++v) {

@@ -8,6 +8,7 @@
 #include "band_cholesky.h"
 #include "cubesphere.h"
 #include "intensity_model.h"
+#include "laplacian_system.h"
 #include "smoothing.h"
 #include "mesh_intersection.h"
 #include "self_intersection.h"
@@ -134,6 +135,7 @@ struct StepScratch {
   TriangleScratch triangles;
   TwoRingGraph pattern;
   EnvelopeCholesky solver;
+  LaplacianProgram program;  // the solver's entries as assembly writes them
   void carve(Arena& a, const CubeSphere& m);
 };
 

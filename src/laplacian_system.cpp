@@ -4,8 +4,151 @@
 
 namespace ffseg {
 
+// An entry's code: bits 0-2 the number of mesh rows adding to it (at most
+// 5), bit 3 + t set when the t-th of them (ascending) is the entry's own row
+// (its constant: lambda 1 1 on the diagonal, lambda 1 (-1/4) off it; else
+// lambda (-1/4) (-1/4)); bits 8-10 the loop edges adding to it (+lambda_u on
+// the diagonal, -lambda_u off it); bit 11 a diagonal entry (then + w).
+namespace {
+constexpr uint16_t kDiag = 1u << 11;
+}
+
+void LaplacianProgram::carve(Arena& a, uint32_t nv) {
+  // Entries: the diagonal and each pair within distance 2, counted once: four
+  // neighbours and at most 4 x 3 at distance 2 per vertex (build() checks).
+  cap = 9 * nv;
+  off = a.alloc<uint64_t>(cap);
+  vert = a.alloc<uint32_t>(cap);
+  code = a.alloc<uint16_t>(cap);
+  val = a.alloc<double>(cap);
+  vloops = a.alloc<uint8_t>(nv);
+  eloops = a.alloc<uint8_t>(size_t(4) * nv);
+  count = 0;
+  ok = false;
+}
+
+void LaplacianProgram::build(const CubeSphere& m, const EnvelopeCholesky& S) {
+  ok = false;
+  count = 0;
+  const uint32_t nv = m.nv;
+  if (S.size() != nv || !S.perm() || !S.iperm()) return;
+  // Loop edges per vertex and per (vertex, neighbour).
+  for (uint32_t v = 0; v < nv; ++v) {
+    vloops[v] = 0;
+    for (int k = 0; k < 4; ++k) eloops[4 * size_t(v) + k] = 0;
+  }
+  auto nbr_slot = [&](uint32_t i, uint32_t j) {
+    for (int k = 0; k < 4; ++k)
+      if (m.nbr[4 * size_t(i) + k] == j) return k;
+    return -1;
+  };
+  for (uint32_t l = 0; l < m.nloops; ++l) {
+    const uint32_t* L = m.loops + size_t(l) * m.loop_len;
+    for (uint32_t p = 0; p < m.loop_len; ++p) {
+      const uint32_t i = L[p], j = L[(p + 1) % m.loop_len];
+      const int ki = nbr_slot(i, j), kj = nbr_slot(j, i);
+      if (i == j || ki < 0 || kj < 0 || vloops[i] >= 7 || vloops[j] >= 7 || eloops[4 * size_t(i) + ki] >= 7)
+        return;  // not the mesh this program expects: assemble the plain way
+      ++vloops[i];
+      ++vloops[j];
+      ++eloops[4 * size_t(i) + ki];
+      ++eloops[4 * size_t(j) + kj];
+    }
+  }
+  const uint32_t* perm = S.perm();
+  const uint32_t* iperm = S.iperm();
+  int64_t last = -1;
+  for (uint32_t a = 0; a < nv; ++a) {
+    const uint32_t i = perm[a];
+    const uint32_t Ni[5] = {i, m.nbr[4 * size_t(i)], m.nbr[4 * size_t(i) + 1], m.nbr[4 * size_t(i) + 2],
+                            m.nbr[4 * size_t(i) + 3]};
+    for (int p = 0; p < 5; ++p)
+      for (int q = p + 1; q < 5; ++q)
+        if (Ni[p] == Ni[q] || Ni[q] >= nv) return;  // assumed distinct: else the plain way
+    // Candidates j: within distance 2, stored in this row (iperm[j] <= a).
+    uint32_t cand[25];
+    int nc = 0;
+    for (int x = 0; x < 5; ++x) {
+      const uint32_t r = Ni[x];
+      const uint32_t Nr[5] = {r, m.nbr[4 * size_t(r)], m.nbr[4 * size_t(r) + 1], m.nbr[4 * size_t(r) + 2],
+                              m.nbr[4 * size_t(r) + 3]};
+      for (int y = 0; y < 5; ++y) {
+        const uint32_t j = Nr[y];
+        if (iperm[j] > a) continue;
+        bool dup = false;
+        for (int z = 0; z < nc && !dup; ++z) dup = cand[z] == j;
+        if (!dup) cand[nc++] = j;
+      }
+    }
+    // Ascending column (storage order within the row).
+    for (int x = 1; x < nc; ++x)
+      for (int y = x; y > 0 && iperm[cand[y - 1]] > iperm[cand[y]]; --y) {
+        const uint32_t t = cand[y];
+        cand[y] = cand[y - 1];
+        cand[y - 1] = t;
+      }
+    for (int x = 0; x < nc; ++x) {
+      const uint32_t j = cand[x];
+      const int64_t o = S.offset_of(i, j);
+      if (o < 0 || o <= last || count == cap) return;
+      last = o;
+      // Mesh rows adding to (i, j): r with both in {r} + nbr(r), i.e. r in
+      // N[i] and N[j] (the adjacency is symmetric), ascending.
+      const uint32_t Nj[5] = {j, m.nbr[4 * size_t(j)], m.nbr[4 * size_t(j) + 1], m.nbr[4 * size_t(j) + 2],
+                              m.nbr[4 * size_t(j) + 3]};
+      uint32_t rows[5];
+      int nr = 0;
+      for (int p = 0; p < 5; ++p)
+        for (int q = 0; q < 5; ++q)
+          if (Ni[p] == Nj[q]) rows[nr++] = Ni[p];
+      for (int p = 1; p < nr; ++p)
+        for (int q = p; q > 0 && rows[q - 1] > rows[q]; --q) {
+          const uint32_t t = rows[q];
+          rows[q] = rows[q - 1];
+          rows[q - 1] = t;
+        }
+      uint16_t c = uint16_t(nr);
+      for (int t = 0; t < nr; ++t)
+        if (rows[t] == i || rows[t] == j) c |= uint16_t(1u << (3 + t));
+      if (i == j) {
+        c |= uint16_t(uint32_t(vloops[i]) << 8) | kDiag;
+      } else {
+        const int k = nbr_slot(i, j);
+        if (k >= 0) c |= uint16_t(uint32_t(eloops[4 * size_t(i) + k]) << 8);
+      }
+      off[count] = uint64_t(o);
+      vert[count] = i;
+      code[count] = c;
+      ++count;
+    }
+  }
+  ok = true;
+}
+
 void assemble_laplacian(const CubeSphere& m, double lambda_l, double lambda_u, const double* w,
-                        EnvelopeCholesky& S) {
+                        EnvelopeCholesky& S, LaplacianProgram* prog) {
+  if (prog && prog->ok) {
+    // The same additions per entry, in the same order, from +0.
+    const double c[2] = {1.0, -0.25};
+    const double k_own_diag = lambda_l * c[0] * c[0], k_own = lambda_l * c[0] * c[1], k_other = lambda_l * c[1] * c[1];
+    const bool uniform = lambda_u > 0;
+    for (uint32_t q = 0; q < prog->count; ++q) {
+      const uint16_t code = prog->code[q];
+      const bool diag = code & kDiag;
+      const double own = diag ? k_own_diag : k_own;
+      double v = 0.0;
+      const int nr = code & 7;
+      for (int t = 0; t < nr; ++t) v += (code >> (3 + t)) & 1 ? own : k_other;
+      if (uniform) {
+        const double u = diag ? lambda_u : -lambda_u;
+        for (int t = (code >> 8) & 7; t > 0; --t) v += u;
+      }
+      if (diag) v += w[prog->vert[q]];
+      prog->val[q] = v;
+    }
+    S.assign_sorted(prog->off, prog->val, prog->count);
+    return;
+  }
   S.clear();
   // A^T A = sum over rows r of a_r^T a_r; row r has 1 at r and -1/4 at its
   // four (distinct) neighbours.

@@ -14,9 +14,29 @@
 
 namespace ffseg {
 
-// Assembles lambda_L A^T A + lambda_u C^T C + diag(w) into S (values only).
+// The matrix's entries in storage order, each with the additions that
+// assemble_laplacian() makes to it, in the order it makes them (the mesh
+// rows r holding both ends ascending, then the loop edges, then w): built
+// once for a mesh and a solver structure, it lets assembly write the storage
+// in one pass with the same sums.
+struct LaplacianProgram {
+  uint64_t* off = nullptr;   // storage offset, ascending
+  uint32_t* vert = nullptr;  // row vertex (diagonal entries: whose w)
+  uint16_t* code = nullptr;  // see laplacian_system.cpp
+  double* val = nullptr;     // per entry, scratch
+  uint8_t* vloops = nullptr; // per vertex: loop edges at it (scratch of build)
+  uint8_t* eloops = nullptr; // 4 per vertex: loop edges to neighbour k (scratch of build)
+  uint32_t count = 0, cap = 0;
+  bool ok = false;
+  void carve(Arena& a, uint32_t nv);
+  // Sets ok when every entry was found in S's envelope.
+  void build(const CubeSphere& m, const EnvelopeCholesky& S);
+};
+
+// Assembles lambda_L A^T A + lambda_u C^T C + diag(w) into S (values only);
+// with prog (built, ok) in one pass over the storage, the same values.
 void assemble_laplacian(const CubeSphere& m, double lambda_l, double lambda_u, const double* w,
-                        EnvelopeCholesky& S);
+                        EnvelopeCholesky& S, LaplacianProgram* prog = nullptr);
 
 // Right-hand sides, three columns of nv (rhs[c * nv + v]), for current
 // positions x, targets p (used where w > 0) and weights w.

@@ -7,8 +7,13 @@
 namespace ffseg {
 
 namespace {
-// At most nt / kBigShare + 16 triangles lie outside the grid.
-constexpr uint32_t kBigShare = 256;
+// At most nt / kRefShare + 16 triangles outgrow the reference cells (a
+// full check doubles its cell size until they do; more in a tracked call:
+// start afresh), at most nt / kBigShare + 16 lie outside the grid (its cell
+// size doubles until they do).
+constexpr uint32_t kRefShare = 256;
+constexpr uint32_t kBigShare = 64;
+constexpr uint8_t kOutside = 1, kWide = 2;
 }  // namespace
 
 void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
@@ -16,9 +21,11 @@ void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
   tris = a.alloc<uint32_t>(size_t(3) * nt);
   centroid = a.alloc<double>(size_t(3) * nt);
   radius = a.alloc<double>(nt);
+  normal = a.alloc<double>(size_t(3) * nt);
   lo = a.alloc<double>(size_t(3) * nt);
   hi = a.alloc<double>(size_t(3) * nt);
   big_cap = nt / kBigShare + 16;
+  ref_cap = nt / kRefShare + 16;
   big = a.alloc<uint32_t>(big_cap + 1);
   is_big = a.alloc<uint8_t>(nt);
   touched = a.alloc<uint8_t>(nt);
@@ -27,6 +34,10 @@ void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
   face_flags = a.alloc<uint8_t>(m.nfaces);
   vertex_flags = a.alloc<uint8_t>(m.nv);
   vertex_marks = a.alloc<uint8_t>(m.nv);
+  face_n_old = a.alloc<double>(size_t(6) * m.nfaces);
+  face_n_new = a.alloc<double>(size_t(6) * m.nfaces);
+  face_alt_old = a.alloc<uint8_t>(m.nfaces);
+  face_alt_new = a.alloc<uint8_t>(m.nfaces);
   grid.carve(a, nt);
   tracked = false;
 }
@@ -52,7 +63,30 @@ inline __attribute__((always_inline)) bool segment_crosses(const double* p, cons
   return (e0 > 0 && e1 > 0 && e2 > 0) || (e0 < 0 && e1 < 0 && e2 < 0);
 }
 
-bool triangles_cross(const double* x, const uint32_t* a, const uint32_t* b) {
+// Whether p and q lie, beyond doubt, strictly on one side of the plane of
+// the triangle with normal n at o: n . (p - o) and n . (q - o) exceed tol
+// with one sign. tol = 1e-13 D^3, D the largest extent of a box holding the
+// four points: the exact orientation of (triangle, p) differs from this
+// estimate by at most ~50 eps D^3 and from any of the pair test's orient()
+// evaluations of it (any argument order, all differences at most D) by at
+// most ~50 eps D^3 too, so past tol every evaluation has the estimate's sign.
+inline bool same_side_certain(const double* n, const double* o, const double* p, const double* q, double tol) {
+  const double dp = n[0] * (p[0] - o[0]) + n[1] * (p[1] - o[1]) + n[2] * (p[2] - o[2]);
+  const double dq = n[0] * (q[0] - o[0]) + n[1] * (q[1] - o[1]) + n[2] * (q[2] - o[2]);
+  return (dp > tol && dq > tol) || (dp < -tol && dq < -tol);
+}
+
+// Triangles sharing exactly one vertex v: the exact test below can report
+// such a pair only when the far vertices of each straddle the other's plane,
+// as computed: a far edge crossing the other triangle needs its ends on both
+// sides of that plane, and its line inside the triangle needs the two edges
+// at v on opposite sides of the plane of the far edge and v, the first
+// triangle's plane. So when the far vertices of one lie beyond doubt
+// (same_side_certain) on one side of the other's plane, the answer is no.
+
+bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint32_t u) {
+  const uint32_t* a = s.tris + 3 * size_t(t);
+  const uint32_t* b = s.tris + 3 * size_t(u);
   int shared = 0, sa = -1, sb = -1;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
@@ -96,16 +130,25 @@ void prepare(const double* x, TriangleScratch& s, uint32_t t, double eps) {
   const double *p0 = x + 3 * size_t(id[0]), *p1 = x + 3 * size_t(id[1]), *p2 = x + 3 * size_t(id[2]);
   for (int a = 0; a < 3; ++a) {
     c[a] = (p0[a] + p1[a] + p2[a]) / 3.0;
-    lo[a] = std::fmin(p0[a], std::fmin(p1[a], p2[a])) - eps;
-    hi[a] = std::fmax(p0[a], std::fmax(p1[a], p2[a])) + eps;
+    // Finite positions: these comparisons give fmin/fmax's values (the sign
+    // of a zero aside, which no test reads), without a libm call.
+    const double l01 = p1[a] < p0[a] ? p1[a] : p0[a], h01 = p1[a] > p0[a] ? p1[a] : p0[a];
+    lo[a] = (p2[a] < l01 ? p2[a] : l01) - eps;
+    hi[a] = (p2[a] > h01 ? p2[a] : h01) + eps;
   }
   double r2 = 0;
   for (int k = 0; k < 3; ++k) {
     double d2 = 0;
     for (int a = 0; a < 3; ++a) d2 += (x[3 * size_t(id[k]) + a] - c[a]) * (x[3 * size_t(id[k]) + a] - c[a]);
-    r2 = std::fmax(r2, d2);
+    r2 = d2 > r2 ? d2 : r2;
   }
   s.radius[t] = std::sqrt(r2);
+  const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+  const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+  double* n = s.normal + 3 * size_t(t);
+  n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+  n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+  n[2] = e1[0] * e2[1] - e1[1] * e2[0];
 }
 
 // Candidate enumeration over the prepared triangles and the grid.
@@ -132,15 +175,24 @@ struct Pairs {
   }
   // A pair with overlapping boxes, t < u: the prefilter of bounding spheres,
   // then the exact crossing test. Returns true to stop (first pair, no mark).
+  // Pairs sharing one vertex are left to fan_pairs(), pairs sharing an edge
+  // are never tested (the fold test's business).
   bool consider(uint32_t t, uint32_t u) {
+    if (shared_vertices(t, u) != 0) return false;
+    if (!spheres_meet(t, u) || !triangles_cross(x, s, t, u)) return false;
+    return hit(t, u);
+  }
+  bool spheres_meet(uint32_t t, uint32_t u) const {
     const double* cu = s.centroid + 3 * size_t(u);
     const double* ct = s.centroid + 3 * size_t(t);
     const double dc2 = (cu[0] - ct[0]) * (cu[0] - ct[0]) + (cu[1] - ct[1]) * (cu[1] - ct[1]) + (cu[2] - ct[2]) * (cu[2] - ct[2]);
     const double reach = s.radius[t] + s.radius[u];
-    if (dc2 > reach * reach) return false;
+    return !(dc2 > reach * reach);
+  }
+  // A crossing pair t < u: count, mark, record.
+  bool hit(uint32_t t, uint32_t u) {
     const uint32_t* a = s.tris + 3 * size_t(t);
     const uint32_t* b = s.tris + 3 * size_t(u);
-    if (!triangles_cross(x, a, b)) return false;
     ++count;
     if (!mark) return true;
     for (int k = 0; k < 3; ++k) mark[a[k]] = mark[b[k]] = 1;
@@ -155,7 +207,76 @@ struct Pairs {
     }
     return false;
   }
+  // Every pair of triangles sharing exactly one vertex v, found in v's fan
+  // (the triangles of its four faces that hold it), each once; with touched,
+  // only the pairs with a touched triangle.
+  bool fan_pairs(const uint8_t* touched) {
+    auto P = [&](uint32_t w) { return x + 3 * size_t(w); };
+    for (uint32_t v = 0; v < m.nv; ++v) {
+      // The fan: triangles holding v, each with its two far vertices in its
+      // cyclic order after v.
+      uint32_t fan[8], far[8][2];
+      int k = 0;
+      bool any = !touched;
+      for (int i = 0; i < 4; ++i) {
+        const uint32_t f = m.vfaces[4 * size_t(v) + i];
+        if (f == kNone) continue;
+        const uint32_t t0 = first_triangle(m, f);
+        const int c = m.faces[4 * size_t(f) + 3] == kNone ? 1 : 2;
+        for (int j = 0; j < c; ++j) {
+          const uint32_t* q = s.tris + 3 * size_t(t0 + j);
+          const int r = q[0] == v ? 0 : q[1] == v ? 1 : q[2] == v ? 2 : -1;
+          if (r < 0) continue;
+          fan[k] = t0 + j;
+          far[k][0] = q[(r + 1) % 3];
+          far[k][1] = q[(r + 2) % 3];
+          any = any || touched[t0 + j];
+          ++k;
+        }
+      }
+      if (k < 2 || !any) continue;
+      // One rounding bound for the whole fan: D spans the boxes of all its
+      // triangles, so every four of their points (same_side_certain()'s
+      // condition).
+      double lo[3] = {s.lo[3 * size_t(fan[0])], s.lo[3 * size_t(fan[0]) + 1], s.lo[3 * size_t(fan[0]) + 2]};
+      double hi[3] = {s.hi[3 * size_t(fan[0])], s.hi[3 * size_t(fan[0]) + 1], s.hi[3 * size_t(fan[0]) + 2]};
+      for (int i = 1; i < k; ++i)
+        for (int a = 0; a < 3; ++a) {
+          const double l = s.lo[3 * size_t(fan[i]) + a], h = s.hi[3 * size_t(fan[i]) + a];
+          lo[a] = l < lo[a] ? l : lo[a];
+          hi[a] = h > hi[a] ? h : hi[a];
+        }
+      double D = 0;
+      for (int a = 0; a < 3; ++a) D = hi[a] - lo[a] > D ? hi[a] - lo[a] : D;
+      const bool filter = D > 1e-80 && D < 1e100;
+      const double tol = filter ? 1e-13 * D * D * D : 0.0;
+      for (int i = 0; i < k; ++i)
+        for (int j = i + 1; j < k; ++j) {
+          // Sharing only v: no far vertex in common (else an edge).
+          if (far[i][0] == far[j][0] || far[i][0] == far[j][1] || far[i][1] == far[j][0] || far[i][1] == far[j][1])
+            continue;
+          const int ti = fan[i] < fan[j] ? i : j, ui = fan[i] < fan[j] ? j : i;
+          const uint32_t t = fan[ti], u = fan[ui];
+          if (touched && !touched[t] && !touched[u]) continue;
+          if (filter && (same_side_certain(s.normal + 3 * size_t(t), P(s.tris[3 * size_t(t)]), P(far[ui][0]),
+                                           P(far[ui][1]), tol) ||
+                         same_side_certain(s.normal + 3 * size_t(u), P(s.tris[3 * size_t(u)]), P(far[ti][0]),
+                                           P(far[ti][1]), tol)))
+            continue;
+          if (!spheres_meet(t, u) || !triangles_cross(x, s, t, u)) continue;
+          if (hit(t, u)) return true;
+        }
+    }
+    return false;
+  }
   bool ordered(uint32_t t, uint32_t u) { return t < u ? consider(t, u) : consider(u, t); }
+  int shared_vertices(uint32_t t, uint32_t u) const {
+    const uint32_t* a = s.tris + 3 * size_t(t);
+    const uint32_t* b = s.tris + 3 * size_t(u);
+    int shared = 0;
+    for (int i = 0; i < 3; ++i) shared += (a[i] == b[0]) + (a[i] == b[1]) + (a[i] == b[2]);
+    return shared;
+  }
 
   // Every pair of a big box t with a grid box u where skip(u) is false, through
   // the cells t overlaps, or through all boxes when that would visit more cells
@@ -172,20 +293,21 @@ struct Pairs {
       });
     } else {
       for (uint32_t u = 0; u < nt && !stop; ++u)
-        if (!s.is_big[u] && !skip(u) && overlap(t, u)) stop = ordered(t, u);
+        if (!(s.is_big[u] & kOutside) && !skip(u) && overlap(t, u)) stop = ordered(t, u);
     }
     return stop;
   }
   // Every pair of grid boxes, by cells; stops at the first crossing pair
   // without mark.
   bool grid_pairs() {
-    return s.grid.for_each_cell_pair([&](uint32_t t, uint32_t u, uint32_t key) {
-      if (!overlap(t, u)) return false;
-      const double *lt = s.lo + 3 * size_t(t), *lu = s.lo + 3 * size_t(u);
-      const double corner[3] = {lt[0] > lu[0] ? lt[0] : lu[0], lt[1] > lu[1] ? lt[1] : lu[1],
-                                lt[2] > lu[2] ? lt[2] : lu[2]};
-      return s.grid.packed_cell(corner) == key && consider(t, u);
-    });
+    return s.grid.for_each_overlapping_cell_pair(s.lo, s.hi, s.tris,
+                                                 [&](uint32_t t, uint32_t u) { return consider(t, u); });
+  }
+  // The same over the pairs with keep(t, u) only.
+  template <class Keep>
+  bool grid_pairs_with(Keep&& keep) {
+    return s.grid.for_each_overlapping_cell_pair(s.lo, s.hi, s.tris,
+                                                 [&](uint32_t t, uint32_t u) { return keep(t, u) && consider(t, u); });
   }
   // Every pair of a grid box t with a grid box u where skip(u) is false.
   template <class Skip>
@@ -193,39 +315,85 @@ struct Pairs {
     const double* lt = s.lo + 3 * size_t(t);
     const double* ht = s.hi + 3 * size_t(t);
     bool stop = false;
-    s.grid.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* c) {
-      if (!stop && u != t && !skip(u) && overlap(t, u) && owns(t, u, c)) stop = ordered(t, u);
+    s.grid.for_each_owned_entry(lt, ht, [&](uint32_t u) {
+      if (!stop && u != t && !skip(u) && overlap(t, u)) stop = ordered(t, u);
     });
     return stop;
   }
 };
 
-// Cell size and big boxes for the prepared triangles; then the grid.
-void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double rmax) {
+// BoxGrid::fits at the cell size 1 / inv_h.
+bool fits_at(double inv_h, const double* lo, const double* hi) {
+  for (int a = 0; a < 3; ++a)
+    if (!(floor_i64(hi[a] * inv_h) - floor_i64(lo[a] * inv_h) <= 1)) return false;
+  return true;
+}
+
+// The grid at cell size h or the smallest doubling of it that leaves at
+// most big_cap boxes outside; the big list. With only (not nullptr) and h
+// the grid's cell size, only the boxes with only[t] != 0 changed since.
+// With known, the kOutside bits are already those of cell size h.
+void layout_enum(const CubeSphere& m, TriangleScratch& s, double h, const uint8_t* only = nullptr,
+                 bool known = false) {
   const uint32_t nt = m.triangle_count();
-  double h = 2 * emean + 1e-9 * rmax;
   for (;;) {
     s.grid.set_cell_size(h);
     s.nbig = 0;
     for (uint32_t t = 0; t < nt; ++t) {
-      s.is_big[t] = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
-      s.nbig += s.is_big[t];
+      if (!known && (!only || only[t])) {
+        const bool out = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+        s.is_big[t] = uint8_t((s.is_big[t] & ~kOutside) | (out ? kOutside : 0));
+      }
+      s.nbig += s.is_big[t] & kOutside;
     }
     if (s.nbig <= s.big_cap) break;
     h *= 2;
+    only = nullptr;
+    known = false;
   }
   uint32_t k = 0;
   for (uint32_t t = 0; t < nt; ++t)
-    if (s.is_big[t]) s.big[k++] = t;
-  s.grid.build(s.lo, s.hi, nt, [&](uint32_t t) { return !s.is_big[t]; });
+    if (s.is_big[t] & kOutside) s.big[k++] = t;
+  s.grid.build(s.lo, s.hi, nt, [&](uint32_t t) { return !(s.is_big[t] & kOutside); });
+}
+
+// The reference cell size for the prepared triangles (doubled until at most
+// ref_cap boxes outgrow it) and their kWide bits; then the grid.
+void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double rmax) {
+  const uint32_t nt = m.triangle_count();
+  const double h0 = 2 * emean + 1e-9 * rmax;
+  double h = h0;
+  for (;;) {
+    const double inv_h = 1.0 / h;
+    uint32_t wide = 0;
+    // At h0 the test is the grid's own (BoxGrid::fits at 1 / h0): both bits.
+    const bool first = h == h0;
+    for (uint32_t t = 0; t < nt; ++t) {
+      const bool w = !fits_at(inv_h, s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+      s.is_big[t] = first ? (w ? kWide | kOutside : 0) : uint8_t((s.is_big[t] & kOutside) | (w ? kWide : 0));
+      wide += w;
+    }
+    if (wide <= s.ref_cap) {
+      s.ref_inv_h = inv_h;
+      break;
+    }
+    h *= 2;
+  }
+  layout_enum(m, s, h0, nullptr, true);
 }
 
 // The whole check from scratch; with record, also keeps the crossing pairs
 // (mark must then be set).
-uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark, bool record) {
+uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark, bool record,
+                    const uint8_t* alt) {
   const uint32_t nt = m.triangle_count();
   s.tracked = false;
-  triangulate(m, x, s.tris);
+  if (alt) {
+    uint32_t t = 0;
+    for (uint32_t f = 0; f < m.nfaces; ++f) t += uint32_t(face_split(m, f, alt[f] != 0, s.tris + 3 * size_t(t)));
+  } else {
+    triangulate(m, x, s.tris);
+  }
   double rmax = 0, emean = 0;
   for (uint32_t t = 0; t < nt; ++t) {
     prepare(x, s, t, 0.0);
@@ -247,6 +415,7 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
   s.npairs = 0;
   s.tracked = record;
   Pairs P{m, x, s, mark, record};
+  if (P.fan_pairs(nullptr)) return P.count;
   auto none = [](uint32_t) { return false; };
   for (uint32_t i = 0; i < s.nbig; ++i) {
     const uint32_t t = s.big[i];
@@ -265,13 +434,14 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
 
 }  // namespace
 
-uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark) {
-  return full_check(m, x, s, mark, false);
+uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
+                            const uint8_t* alt) {
+  return full_check(m, x, s, mark, false, alt);
 }
 
 uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
-                                    const uint8_t* moved) {
-  if (!moved || !s.tracked) return full_check(m, x, s, mark, true);
+                                    const uint8_t* moved, const uint8_t* alt) {
+  if (!moved || !s.tracked) return full_check(m, x, s, mark, true, alt);
   const uint32_t nt = m.triangle_count();
   // Re-split and re-measure the faces around moved vertices.
   for (uint32_t t = 0; t < nt; ++t) s.touched[t] = 0;
@@ -283,7 +453,8 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
     for (int i = 0; i < k && !any; ++i) any = moved[q[i]] != 0;
     if (!any) continue;
     const uint32_t t0 = first_triangle(m, f);
-    const int c = face_triangles(m, f, s.tris + 3 * size_t(t0), x);
+    const int c = alt ? face_split(m, f, alt[f] != 0, s.tris + 3 * size_t(t0))
+                      : face_triangles(m, f, s.tris + 3 * size_t(t0), x);
     for (int i = 0; i < c; ++i) {
       s.touched[t0 + i] = 1;
       prepare(x, s, t0 + i, s.eps);
@@ -296,18 +467,20 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
     s.tracked = false;
     return 0;
   }
-  // The grid keeps its cell size; boxes that outgrew it join the big ones
-  // (beyond their cap: start afresh).
+  // The reference cell size stays; more boxes outgrowing it than its cap:
+  // start afresh. The grid keeps its cell size (doubled when too many boxes
+  // outgrew it); boxes outside it join the big ones.
   if (ntouched) {
-    s.nbig = 0;
+    uint32_t wide = 0;
     for (uint32_t t = 0; t < nt; ++t) {
-      if (s.touched[t]) s.is_big[t] = !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
-      if (s.is_big[t]) {
-        if (s.nbig == s.big_cap) return full_check(m, x, s, mark, true);
-        s.big[s.nbig++] = t;
+      if (s.touched[t]) {
+        const bool w = !fits_at(s.ref_inv_h, s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+        s.is_big[t] = uint8_t((s.is_big[t] & ~kWide) | (w ? kWide : 0));
       }
+      wide += (s.is_big[t] & kWide) != 0;
     }
-    s.grid.build(s.lo, s.hi, nt, [&](uint32_t t) { return !s.is_big[t]; });
+    if (wide > s.ref_cap) return full_check(m, x, s, mark, true, alt);
+    layout_enum(m, s, s.grid.cell_size(), s.touched);
   }
   // Pairs between untouched triangles stand; the others are found afresh.
   Pairs P{m, x, s, mark, true};
@@ -327,11 +500,16 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
   // Each new pair once: touched grid boxes against the grid (two touched:
   // from the lower index) and against every big box; touched big boxes
   // against untouched grid boxes and against the big boxes (two touched:
-  // from the lower index).
+  // from the lower index). With most boxes touched (small meshes, wide
+  // tapers), the grid pairs come from one walk over the cells instead, the
+  // same pairs: those with a touched box.
+  P.fan_pairs(s.touched);
+  const bool walk = 2 * size_t(ntouched) > nt;
+  if (walk) P.grid_pairs_with([&](uint32_t t, uint32_t u) { return (s.touched[t] | s.touched[u]) != 0; });
   for (uint32_t t = 0; t < nt; ++t) {
     if (!s.touched[t]) continue;
-    if (!s.is_big[t]) {
-      P.grid_vs_grid(t, [&](uint32_t u) { return s.touched[u] && u < t; });
+    if (!(s.is_big[t] & kOutside)) {
+      if (!walk) P.grid_vs_grid(t, [&](uint32_t u) { return s.touched[u] && u < t; });
       for (uint32_t j = 0; j < s.nbig; ++j)
         if (P.overlap(t, s.big[j])) P.ordered(t, s.big[j]);
     } else {

@@ -18,13 +18,21 @@ struct TriangleScratch {
   uint32_t* tris = nullptr;   // 3 per triangle
   double* centroid = nullptr; // 3 per triangle
   double* radius = nullptr;   // per triangle: farthest vertex from the centroid
+  double* normal = nullptr;   // 3 per triangle: (p1 - p0) x (p2 - p0)
   double* lo = nullptr;       // 3 per triangle: bounding box (widened a hair)
   double* hi = nullptr;
-  uint8_t* is_big = nullptr;  // per triangle: too wide for the grid
-  uint32_t* big = nullptr;    // their indices (at most big_cap)
+  // Per triangle: kOutside, too wide for the grid (then listed in big, at
+  // most big_cap); kWide, too wide for the reference cells.
+  uint8_t* is_big = nullptr;
+  uint32_t* big = nullptr;
   uint32_t nbig = 0, big_cap = 0;
   BoxGrid grid;
   double eps = 0;             // the boxes' widening
+  // The reference cell size of the last full check (1 / ref_inv_h): when
+  // more than ref_cap boxes outgrow its cells, a tracked call starts afresh.
+  // The grid's own cell size only sets the cost of finding the pairs.
+  double ref_inv_h = 1;
+  uint32_t ref_cap = 0;
   // mark_intersections_tracked: the crossing pairs (t < u) at the positions
   // of the last call, valid while tracked; touched: per triangle, scratch.
   uint32_t* pairs = nullptr;
@@ -35,13 +43,24 @@ struct TriangleScratch {
   uint8_t* face_flags = nullptr;
   uint8_t* vertex_flags = nullptr;
   uint8_t* vertex_marks = nullptr;
+  // For the step guard's fold test: per face, the normals of its triangles
+  // (3 each, face_triangles() order) as split at the old positions and
+  // computed there, and as split and computed at the tested positions, and
+  // the two splits (1: the 1-3 diagonal).
+  double* face_n_old = nullptr;
+  double* face_n_new = nullptr;
+  uint8_t* face_alt_old = nullptr;
+  uint8_t* face_alt_new = nullptr;
   void carve(Arena& a, const CubeSphere& m);
 };
 
 // Marks (mark[v] = 1, when mark is not nullptr) the vertices of every
 // intersecting pair at positions x (3 per vertex) and returns the number of
 // pairs (stops at the first when mark is nullptr).
-uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark);
+// alt (optional): per face, its split at x as face_triangles() gives it
+// (1: the 1-3 diagonal), when the caller has it.
+uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
+                            const uint8_t* alt = nullptr);
 
 // The same with mark required and the pairs kept in s: when moved is given
 // and the previous call was tracked too, positions x may differ from that
@@ -49,6 +68,6 @@ uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratc
 // around them are tested again. Marks and count equal mark_intersections'.
 // Any mark_intersections() call in between ends the tracking.
 uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
-                                    const uint8_t* moved);
+                                    const uint8_t* moved, const uint8_t* alt = nullptr);
 
 }  // namespace ffseg

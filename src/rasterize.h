@@ -25,17 +25,13 @@ inline double split_cos(const double* a, const double* b, const double* c, const
 // A quad is split along the diagonal whose two triangles bend least at the
 // positions x (3 per vertex; nullptr: always the 0-2 diagonal), so a
 // non-planar quad never becomes a sharp fold.
-inline int face_triangles(const CubeSphere& m, uint32_t f, uint32_t out[6], const double* x = nullptr) {
+// face_triangles()' output for face f split along the 0-2 diagonal (alt
+// false) or the 1-3 diagonal (alt true).
+inline int face_split(const CubeSphere& m, uint32_t f, bool alt, uint32_t out[6]) {
   const uint32_t* q = m.faces + 4 * size_t(f);
   if (q[3] == kNone) {
     out[0] = q[0]; out[1] = q[1]; out[2] = q[2];
     return 1;
-  }
-  bool alt = false;
-  if (x) {
-    const double *p0 = x + 3 * size_t(q[0]), *p1 = x + 3 * size_t(q[1]), *p2 = x + 3 * size_t(q[2]),
-                 *p3 = x + 3 * size_t(q[3]);
-    alt = detail::split_cos(p1, p2, p3, p0) > detail::split_cos(p0, p1, p2, p3) + 1e-12;
   }
   if (!alt) {
     out[0] = q[0]; out[1] = q[1]; out[2] = q[2];
@@ -45,6 +41,17 @@ inline int face_triangles(const CubeSphere& m, uint32_t f, uint32_t out[6], cons
     out[3] = q[1]; out[4] = q[3]; out[5] = q[0];
   }
   return 2;
+}
+
+inline int face_triangles(const CubeSphere& m, uint32_t f, uint32_t out[6], const double* x = nullptr) {
+  const uint32_t* q = m.faces + 4 * size_t(f);
+  bool alt = false;
+  if (x && q[3] != kNone) {
+    const double *p0 = x + 3 * size_t(q[0]), *p1 = x + 3 * size_t(q[1]), *p2 = x + 3 * size_t(q[2]),
+                 *p3 = x + 3 * size_t(q[3]);
+    alt = detail::split_cos(p1, p2, p3, p0) > detail::split_cos(p0, p1, p2, p3) + 1e-12;
+  }
+  return face_split(m, f, alt, out);
 }
 
 // All triangles, 3 indices each, outward (counter-clockwise seen from outside),

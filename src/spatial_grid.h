@@ -4,6 +4,7 @@
 // every point keeps its packed cell coordinates, so a bucket shared by two
 // cells of one query (a hash collision) is not read twice.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 
 #include "arena.h"
@@ -180,22 +181,138 @@ class BoxGrid : public CellTable {
       const uint32_t hb = hash(x, y, z);
       const uint32_t pc = pack(x, y, z);
       for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
-        if (key_[k] == pc) f(ids_[k], c);
+        if (key_[k] == pc) f(ids_[k] & kIdMask, c);
+    });
+  }
+  // For a box [lo, hi] that fits: calls f(id) for the entries met in the
+  // cell holding the low corner of the intersection of the two boxes, the one
+  // cell where the pair counts; that cell is, per axis, the low cell of one
+  // of the two boxes, so an entry's low-cell bits and the query's decide
+  // without arithmetic. (An entry of an aliased cell may be reported; its box
+  // does not overlap the query's, which the caller tests.)
+  template <class F>
+  void for_each_owned_entry(const double* lo, const double* hi, F&& f) const {
+    const int64_t c0 = cell(lo[0]), c1 = cell(lo[1]), c2 = cell(lo[2]);
+    for_each_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+      const uint32_t low = uint32_t(x == c0) | uint32_t(y == c1) << 1 | uint32_t(z == c2) << 2;
+      const uint32_t hb = hash(x, y, z);
+      const uint32_t pc = pack(x, y, z);
+      for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
+        if (key_[k] == pc && ((ids_[k] >> kLowShift) | low) == 7) f(ids_[k] & kIdMask);
     });
   }
 
-  // Calls f(i, j, key) for every two entries i < j (box ids) of one bucket
-  // with the same packed cell key, walking the table in order (no lookups).
-  // Cells whose keys alias share a bucket and a key: the caller tests that
-  // key == packed_cell() of the cell where the pair counts. Stops when f
-  // returns true; returns whether it did.
+  // Calls f(i, j) for every two entries i < j (box ids) of one bucket with
+  // the same packed cell key that are met in the cell holding the low corner
+  // of their boxes' intersection (the one cell where the pair counts): per
+  // axis that cell is the low cell of one of the two boxes, read from the
+  // entries' low-cell bits. Walks the table in order (no lookups). Cells
+  // whose keys alias share a bucket and a key; their boxes do not overlap,
+  // which the caller tests. Stops when f returns true; returns whether it did.
   template <class F>
   bool for_each_cell_pair(F&& f) const {
     for (uint32_t hb = 0; hb < table_; ++hb) {
       const uint32_t e = start_[hb + 1];
-      for (uint32_t k = start_[hb]; k + 1 < e; ++k)
-        for (uint32_t l = k + 1; l < e; ++l)
-          if (key_[l] == key_[k] && f(ids_[k], ids_[l], key_[k])) return true;
+      for (uint32_t k = start_[hb]; k + 1 < e; ++k) {
+        const uint32_t kk = key_[k], ik = ids_[k];
+        if ((ik >> kLowShift) == 7) {
+          for (uint32_t l = k + 1; l < e; ++l)
+            if (key_[l] == kk && f(ik & kIdMask, ids_[l] & kIdMask)) return true;
+        } else {
+          for (uint32_t l = k + 1; l < e; ++l)
+            if (key_[l] == kk && ((ids_[l] | ik) >> kLowShift) == 7 && f(ik & kIdMask, ids_[l] & kIdMask))
+              return true;
+        }
+      }
+    }
+    return false;
+  }
+  // for_each_cell_pair restricted to the pairs whose boxes (lo, hi: 3 per
+  // box id, as built) overlap, closed, and whose labels (tris: 3 per box id)
+  // differ: the same pairs in the same order, each bucket's boxes and labels
+  // read once.
+  template <class F>
+  bool for_each_overlapping_cell_pair(const double* lo, const double* hi, const uint32_t* tris, F&& f) const {
+    constexpr uint32_t kLocal = 64, kSweep = 1024;
+    struct Sweep {
+      double x;
+      uint32_t k;
+    };
+    double b[kLocal][6];
+    uint32_t v[kLocal][3];
+    auto disjoint = [](const uint32_t* p, const uint32_t* q) {
+      return p[0] != q[0] && p[0] != q[1] && p[0] != q[2] && p[1] != q[0] && p[1] != q[1] && p[1] != q[2] &&
+             p[2] != q[0] && p[2] != q[1] && p[2] != q[2];
+    };
+    for (uint32_t hb = 0; hb < table_; ++hb) {
+      const uint32_t k0 = start_[hb], e = start_[hb + 1];
+      if (e - k0 < 2) continue;
+      if (e - k0 > kLocal && e - k0 <= kSweep) {
+        // A crowded bucket (a crumpled region of small triangles): its
+        // entries by the low x of their boxes, each paired only with those
+        // starting before it ends (the same pairs, in another order; f gets
+        // the lower id first).
+        Sweep w[kSweep];
+        const uint32_t c = e - k0;
+        for (uint32_t k = 0; k < c; ++k) {
+          const uint32_t id = ids_[k0 + k] & kIdMask;
+          w[k] = Sweep{lo[3 * size_t(id)], k0 + k};
+        }
+        std::sort(w, w + c, [](const Sweep& p, const Sweep& q) { return p.x < q.x || (p.x == q.x && p.k < q.k); });
+        for (uint32_t i = 0; i + 1 < c; ++i) {
+          const uint32_t k = w[i].k, kk = key_[k], ik = ids_[k];
+          const double *lk = lo + 3 * size_t(ik & kIdMask), *hk = hi + 3 * size_t(ik & kIdMask);
+          for (uint32_t j = i + 1; j < c && !(w[j].x > hk[0]); ++j) {
+            const uint32_t l = w[j].k;
+            if (key_[l] != kk || ((ids_[l] | ik) >> kLowShift) != 7) continue;
+            const uint32_t il = ids_[l] & kIdMask;
+            const double *ll = lo + 3 * size_t(il), *hl = hi + 3 * size_t(il);
+            if (ll[0] > hk[0] || lk[0] > hl[0] || ll[1] > hk[1] || lk[1] > hl[1] || ll[2] > hk[2] || lk[2] > hl[2])
+              continue;
+            if (!disjoint(tris + 3 * size_t(ik & kIdMask), tris + 3 * size_t(il))) continue;
+            const uint32_t a = ik & kIdMask;
+            if (a < il ? f(a, il) : f(il, a)) return true;
+          }
+        }
+        continue;
+      }
+      if (e - k0 > kLocal) {
+        for (uint32_t k = k0; k + 1 < e; ++k) {
+          const uint32_t kk = key_[k], ik = ids_[k];
+          const double *lk = lo + 3 * size_t(ik & kIdMask), *hk = hi + 3 * size_t(ik & kIdMask);
+          for (uint32_t l = k + 1; l < e; ++l) {
+            if (key_[l] != kk || ((ids_[l] | ik) >> kLowShift) != 7) continue;
+            const uint32_t il = ids_[l] & kIdMask;
+            const double *ll = lo + 3 * size_t(il), *hl = hi + 3 * size_t(il);
+            if (ll[0] > hk[0] || lk[0] > hl[0] || ll[1] > hk[1] || lk[1] > hl[1] || ll[2] > hk[2] || lk[2] > hl[2])
+              continue;
+            if (!disjoint(tris + 3 * size_t(ik & kIdMask), tris + 3 * size_t(il))) continue;
+            if (f(ik & kIdMask, il)) return true;
+          }
+        }
+        continue;
+      }
+      for (uint32_t k = k0; k < e; ++k) {
+        const uint32_t id = ids_[k] & kIdMask;
+        for (int a = 0; a < 3; ++a) {
+          b[k - k0][a] = lo[3 * size_t(id) + a];
+          b[k - k0][3 + a] = hi[3 * size_t(id) + a];
+          v[k - k0][a] = tris[3 * size_t(id) + a];
+        }
+      }
+      for (uint32_t k = k0; k + 1 < e; ++k) {
+        const uint32_t kk = key_[k], ik = ids_[k];
+        const double* bk = b[k - k0];
+        for (uint32_t l = k + 1; l < e; ++l) {
+          // All tests evaluated, one branch (they mostly fail).
+          const double* bl = b[l - k0];
+          const bool meet = (key_[l] == kk) & (((ids_[l] | ik) >> kLowShift) == 7) & !(bl[0] > bk[3]) &
+                            !(bk[0] > bl[3]) & !(bl[1] > bk[4]) & !(bk[1] > bl[4]) & !(bl[2] > bk[5]) &
+                            !(bk[2] > bl[5]);
+          if (!meet || !disjoint(v[k - k0], v[l - k0])) continue;
+          if (f(ik & kIdMask, ids_[l] & kIdMask)) return true;
+        }
+      }
     }
     return false;
   }
@@ -211,25 +328,42 @@ class BoxGrid : public CellTable {
 
   uint32_t* key_ = nullptr;  // kMaxEntries per box: packed cell of ids_[k]
   double h_ = 1;
+  // ids_[k]: the box id, and in the top bits, per axis, whether the entry's
+  // cell is the box's low cell (ids stay below 2^29).
+  static constexpr int kLowShift = 29;
+  static constexpr uint32_t kIdMask = (1u << kLowShift) - 1;
 };
 
 template <class Keep>
 void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& keep) {
   clear_counts();
-  auto entered = [&](uint32_t i) { return keep(i) && fits(lo + 3 * size_t(i), hi + 3 * size_t(i)); };
+  // Per box: its cell range, whether it fits (at most two cells per axis).
+  auto range = [&](uint32_t i, int64_t* a, int64_t* b) {
+    if (!keep(i)) return false;
+    for (int k = 0; k < 3; ++k) {
+      a[k] = cell(lo[3 * size_t(i) + k]);
+      b[k] = cell(hi[3 * size_t(i) + k]);
+      if (!(b[k] - a[k] <= 1)) return false;
+    }
+    return true;
+  };
+  int64_t a[3], b[3];
   for (uint32_t i = 0; i < count; ++i) {
-    if (!entered(i)) continue;
-    for_each_cell_of(lo + 3 * size_t(i), hi + 3 * size_t(i),
-                     [&](int64_t x, int64_t y, int64_t z) { ++start_[hash(x, y, z) + 1]; });
+    if (!range(i, a, b)) continue;
+    for (int64_t z = a[2]; z <= b[2]; ++z)
+      for (int64_t y = a[1]; y <= b[1]; ++y)
+        for (int64_t x = a[0]; x <= b[0]; ++x) ++start_[hash(x, y, z) + 1];
   }
   starts();
   for (uint32_t i = 0; i < count; ++i) {
-    if (!entered(i)) continue;
-    for_each_cell_of(lo + 3 * size_t(i), hi + 3 * size_t(i), [&](int64_t x, int64_t y, int64_t z) {
-      const uint32_t k = start_[hash(x, y, z)]++;
-      ids_[k] = i;
-      key_[k] = pack(x, y, z);
-    });
+    if (!range(i, a, b)) continue;
+    for (int64_t z = a[2]; z <= b[2]; ++z)
+      for (int64_t y = a[1]; y <= b[1]; ++y)
+        for (int64_t x = a[0]; x <= b[0]; ++x) {
+          const uint32_t k = start_[hash(x, y, z)]++;
+          ids_[k] = i | (uint32_t(x == a[0]) | uint32_t(y == a[1]) << 1 | uint32_t(z == a[2]) << 2) << kLowShift;
+          key_[k] = pack(x, y, z);
+        }
   }
   restore();
 }

@@ -153,8 +153,85 @@ uint32_t mark_violations(const CubeSphere& m, const double* x_old, const double*
 
 namespace {
 
-bool violates(const CubeSphere& m, const double* x_old, const double* xs, TriangleScratch& ts) {
-  return mark_violations(m, x_old, xs, nullptr) > 0 || mark_intersections(m, xs, ts, nullptr) > 0;
+// The guard's fold test on cached splits and normals (ts.face_*): the same
+// tri_normal() of the same vertices in the same order as face_offences(), so
+// the same bits. cache_face: face f split at x and its triangles' normals.
+void cache_face(const CubeSphere& m, uint32_t f, const double* x, double* n, uint8_t* alt) {
+  uint32_t tri[6] = {0, 0, 0, 0, 0, 0};
+  const int nt = face_triangles(m, f, tri, x);
+  alt[f] = nt == 2 && tri[0] != m.faces[4 * size_t(f)];
+  for (int t = 0; t < nt; ++t) {
+    const uint32_t* id = tri + 3 * t;
+    tri_normal(x + 3 * size_t(id[0]), x + 3 * size_t(id[1]), x + 3 * size_t(id[2]), n + 6 * size_t(f) + 3 * t);
+  }
+}
+
+// split_edge_normal() from the cache: the normal of the triangle of face f
+// (split tri, nt triangles; normals n) holding the directed edge a -> b.
+const double* cached_edge_normal(const uint32_t* tri, int nt, uint32_t a, uint32_t b, const double* n) {
+  static const double kZero[3] = {0, 0, 0};
+  for (int t = 0; t < nt; ++t) {
+    const uint32_t* id = tri + 3 * t;
+    for (int k = 0; k < 3; ++k)
+      if (id[k] == a && id[(k + 1) % 3] == b) return n + 3 * t;
+  }
+  return kZero;
+}
+
+uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, const TriangleScratch& ts) {
+  uint8_t bits = 0;
+  const bool alt_old = ts.face_alt_old[f], alt_new = ts.face_alt_new[f];
+  const double* no = ts.face_n_old + 6 * size_t(f);
+  const double* nn = ts.face_n_new + 6 * size_t(f);
+  uint32_t tri[6] = {0, 0, 0, 0, 0, 0};
+  const int nt = face_split(m, f, alt_old, tri);
+  for (int t = 0; t < nt; ++t) {
+    const uint32_t* id = tri + 3 * t;
+    const double* n0 = no + 3 * t;
+    double n1s[3];
+    const double* n1 = nn + 3 * t;
+    if (alt_old != alt_new) {
+      tri_normal(xs + 3 * size_t(id[0]), xs + 3 * size_t(id[1]), xs + 3 * size_t(id[2]), n1s);
+      n1 = n1s;
+    }
+    if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0)) bits |= uint8_t(kTurn << t);
+  }
+  const uint32_t* q = m.faces + 4 * size_t(f);
+  const int k = q[3] == kNone ? 3 : 4;
+  uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
+  const int ntn = face_split(m, f, alt_new, tn);
+  if (nt == 2) {
+    if (cos_of(nn, nn + 3) < kFoldCos) {
+      if (cos_of(no, no + 3) >= kFoldCos) bits |= kQuadFold;
+    }
+  }
+  for (int e = 0; e < k; ++e) {
+    const uint32_t g = m.fadj[4 * size_t(f) + e];
+    if (g == kNone || g < f) continue;  // each shared edge once
+    const uint32_t a = q[e], b = q[(e + 1) % k];
+    uint32_t tg[6] = {0, 0, 0, 0, 0, 0};
+    const int ntg = face_split(m, g, ts.face_alt_new[g], tg);
+    const double* nf = cached_edge_normal(tn, ntn, a, b, nn);
+    const double* ng = cached_edge_normal(tg, ntg, b, a, ts.face_n_new + 6 * size_t(g));
+    if (cos_of(nf, ng) >= kFoldCos) continue;
+    const int nto = face_split(m, g, ts.face_alt_old[g], tg);
+    nf = cached_edge_normal(tri, nt, a, b, no);
+    ng = cached_edge_normal(tg, nto, b, a, ts.face_n_old + 6 * size_t(g));
+    if (cos_of(nf, ng) >= kFoldCos) bits |= uint8_t(kEdgeFold << e);
+  }
+  return bits;
+}
+
+// Whether any face offends at xs (the cache at xs refreshed for every face).
+bool any_violation(const CubeSphere& m, const double* xs, TriangleScratch& ts) {
+  for (uint32_t f = 0; f < m.nfaces; ++f) cache_face(m, f, xs, ts.face_n_new, ts.face_alt_new);
+  for (uint32_t f = 0; f < m.nfaces; ++f)
+    if (face_offences_cached(m, f, xs, ts)) return true;
+  return false;
+}
+
+bool violates(const CubeSphere& m, const double* xs, TriangleScratch& ts) {
+  return any_violation(m, xs, ts) || mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) > 0;
 }
 
 void relax(const CubeSphere& m, double* share, size_t v) {
@@ -197,7 +274,8 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
                   TriangleScratch& ts) {
   uint8_t* flags = ts.face_flags;
   if (!moved) {
-    for (uint32_t f = 0; f < m.nfaces; ++f) flags[f] = face_offences(m, f, x_old, xs);
+    for (uint32_t f = 0; f < m.nfaces; ++f) cache_face(m, f, xs, ts.face_n_new, ts.face_alt_new);
+    for (uint32_t f = 0; f < m.nfaces; ++f) flags[f] = face_offences_cached(m, f, xs, ts);
   } else {
     // A face's tests read its own vertices and those of its edge neighbours.
     for (uint32_t f = 0; f < m.nfaces; ++f) {
@@ -206,6 +284,7 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
       for (int i = 0; i < k; ++i)
         if (moved[q[i]]) {
           flags[f] |= kDirty;
+          cache_face(m, f, xs, ts.face_n_new, ts.face_alt_new);
           break;
         }
     }
@@ -217,7 +296,7 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
         const uint32_t g = m.fadj[4 * size_t(f) + e];
         dirty = g != kNone && (flags[g] & kDirty);
       }
-      if (dirty) flags[f] = uint8_t((flags[f] & kDirty) | face_offences(m, f, x_old, xs));
+      if (dirty) flags[f] = uint8_t((flags[f] & kDirty) | face_offences_cached(m, f, xs, ts));
     }
     for (uint32_t f = 0; f < m.nfaces; ++f) flags[f] &= uint8_t(~kDirty);
   }
@@ -226,7 +305,7 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
   uint32_t count = 0;
   for (uint32_t f = 0; f < m.nfaces; ++f)
     if (flags[f]) count += mark_offences(m, f, flags[f], x_old, mark, false);
-  return count + mark_intersections_tracked(m, xs, ts, mark, moved);
+  return count + mark_intersections_tracked(m, xs, ts, mark, moved, ts.face_alt_new);
 }
 
 }  // namespace
@@ -237,16 +316,18 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // {1, 1/2, 1/4} that turns no triangle by 90 degrees and folds no edge.
   // Scaling the whole update keeps it smooth.
   const size_t nv = m.nv;
+  // Splits and normals at x_old, fixed for the whole step.
+  for (uint32_t f = 0; f < m.nfaces; ++f) cache_face(m, f, x_old, ts.face_n_old, ts.face_alt_old);
   for (size_t v = 0; v < nv; ++v) share[v] = 1.0;
   double s = 1.0;
   blend(nv, x_old, x_new, s, share, xs, nullptr);
   int halvings = 0;
-  bool bad = violates(m, x_old, xs, ts);
+  bool bad = violates(m, xs, ts);
   while (bad && halvings < kGlobalHalvings) {
     ++halvings;
     s *= 0.5;
     blend(nv, x_old, x_new, s, share, xs, nullptr);
-    bad = violates(m, x_old, xs, ts);
+    bad = violates(m, xs, ts);
   }
   for (size_t v = 0; v < nv; ++v) share[v] = s;
   // Still offending: one region holds the step back. Every share starts again
@@ -288,7 +369,7 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
     }
     g *= 0.5;
     blend(nv, x_old, x_new, g, share, xs, nullptr);
-    clean = !violates(m, x_old, xs, ts);
+    clean = !violates(m, xs, ts);
   }
   double kept = 0;
   for (size_t v = 0; v < nv; ++v) {
