@@ -14,14 +14,7 @@
 #include "exp_block.h"
 #include "smoothing.h"
 
-// Wide kernels must not contract a * b + c into an FMA (the scalar code they
-// reproduce rounds both): GCC takes it per function, clang per file.
-#if defined(__clang__)
-#pragma clang fp contract(off)
-#define FFSEG_NO_FMA_CONTRACT
-#else
-#define FFSEG_NO_FMA_CONTRACT __attribute__((optimize("fp-contract=off")))
-#endif
+#include "fp_contract_off.h"  // after every other include
 
 namespace ffseg {
 
