@@ -240,10 +240,12 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
     const char* name;
     double dice_floor, assd_ceiling;
   };
-  const Case cases[] = {{73, "putamen L", 0.37, 5.7},    {74, "putamen R", 0.46, 4.4},
-                        {77, "thalamus L", 0.55, 3.4},   {78, "thalamus R", 0.45, 5.1},
-                        {71, "caudate L", 0.58, 5.2},    {72, "caudate R", 0.52, 5.7},
-                        {37, "hippocampus L", 0.47, 5.5}, {38, "hippocampus R", 0.43, 6.3}};
+  // Measured (Dice / ASSD mm): 0.408 / 3.99, 0.485 / 3.33, 0.608 / 2.57,
+  // 0.612 / 2.39, 0.604 / 2.34, 0.570 / 2.74, 0.497 / 3.65, 0.479 / 3.96.
+  const Case cases[] = {{73, "putamen L", 0.38, 4.6},    {74, "putamen R", 0.46, 3.9},
+                        {77, "thalamus L", 0.58, 3.2},   {78, "thalamus R", 0.58, 3.0},
+                        {71, "caudate L", 0.58, 2.9},    {72, "caudate R", 0.54, 3.3},
+                        {37, "hippocampus L", 0.47, 4.2}, {38, "hippocampus R", 0.45, 4.6}};
   std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
     CAPTURE(c.name);
