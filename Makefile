@@ -13,7 +13,7 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev doctest-dev zlib1g-dev libstb-dev \
                 clang libclang-rt-14-dev liblapack-dev libopenblas-dev mricron-data
 
-.PHONY: all build deps test demo bench install clean fuzz fuzz-smoke check-sanitizers
+.PHONY: all build deps test demo bench install clean fuzz fuzz-smoke check-sanitizers check-portable
 
 all: build
 
@@ -99,6 +99,13 @@ fuzz-smoke: fuzz
 	  grep -E "^#[0-9]+[[:space:]]+DONE" $(FUZZ_BUILD)/smoke-$$t.log || true; \
 	  grep -E "^stat::number_of_executed_units" $(FUZZ_BUILD)/smoke-$$t.log || true; \
 	done; echo "fuzz-smoke: no findings"
+
+# The portable code paths alone (what a non-x86 CPU builds): every test must
+# pass with the same results as the x86 kernels.
+check-portable: deps
+	cmake -S . -B build-portable -DCMAKE_BUILD_TYPE=Release -DFFSEG_PORTABLE=ON
+	cmake --build build-portable -j $(JOBS)
+	cd build-portable && ctest --output-on-failure --timeout 3600
 
 check-sanitizers: deps
 	CC=$(SAN_CC) CXX=$(SAN_CXX) cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFFSEG_SANITIZE=ON

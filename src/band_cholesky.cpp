@@ -3,7 +3,8 @@
 #include <cmath>
 #include <cstring>
 
-#if defined(__x86_64__) || defined(__i386__)
+#include "cpu_x86.h"
+#if FFSEG_X86
 #define FFSEG_BC_X86 1
 #include <immintrin.h>
 #else

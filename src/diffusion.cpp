@@ -1,7 +1,9 @@
 #include "diffusion.h"
 
 #include <cmath>
-#if defined(__SSE2__)
+
+#include "cpu_x86.h"
+#if FFSEG_X86 && defined(__SSE2__)
 #include <emmintrin.h>
 #endif
 
@@ -20,7 +22,7 @@ void diffuse_all(const CubeSphere& m, uint32_t rounds, double* d, double* tmp) {
   double* dst = tmp;
   for (uint32_t r = 0; r < rounds; ++r) {
     uint32_t v = 0;
-#if defined(__SSE2__)
+#if FFSEG_X86 && defined(__SSE2__)
     // Two vertices at a time, their six values in three lanes pairs: the same
     // additions and divisions per value (division by 5 dominated the loop).
     const __m128d zero = _mm_setzero_pd(), five = _mm_set1_pd(5.0);

@@ -3,7 +3,8 @@
 #include <cmath>
 #include <cstring>
 
-#if defined(__x86_64__) && defined(__GNUC__)
+#include "cpu_x86.h"
+#if FFSEG_X86 && defined(__x86_64__)
 // GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own
 // _mm512_undefined_* placeholders (GCC bug 105593).
 #if !defined(__clang__)
@@ -84,12 +85,12 @@ struct ExpTable {
   }
 };
 
+#ifdef FFSEG_EXP_VECTOR
+
 const ExpTable& table() {
   static const ExpTable t;
   return t;
 }
-
-#ifdef FFSEG_EXP_VECTOR
 
 // Eight lanes: out = exp(x) correctly rounded where certified (see the
 // header), ok bit set; other lanes undefined.

@@ -4,12 +4,15 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include "cpu_x86.h"
+#if FFSEG_X86
 // GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own
 // _mm512_undefined_* placeholders (GCC bug 105593).
 #if !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #endif
 #include <immintrin.h>
+#endif
 
 #include "exp_block.h"
 #include "smoothing.h"
@@ -194,19 +197,26 @@ void e_step_base(uint32_t m, const float* x, uint32_t n, double shift, const dou
   e_step_switch<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
 }
 
+#if FFSEG_X86
 template <bool EXACT>
 __attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT void e_step_avx512(
     uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih,
     double* Z, double* Zx, double* Zxx, LogLik* ll) {
   e_step_switch<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
 }
+#endif
 
 template <bool EXACT>
 void e_step_m(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
               const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
+#if FFSEG_X86
   static const bool wide = __builtin_cpu_supports("avx512f");
-  if (wide) e_step_avx512<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
-  else e_step_base<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  if (wide) {
+    e_step_avx512<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+    return;
+  }
+#endif
+  e_step_base<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
 }
 
 void e_step_dispatch(bool exact, uint32_t m, const float* x, uint32_t n, double shift, const double* la,
@@ -251,6 +261,7 @@ uint32_t mixing_stride(uint32_t n) {
 
 namespace {
 
+#if FFSEG_X86
 // One pass of Algorithm 2's visits with at most 8 clusters held in vector
 // lanes (AVX-512F): from visit t0 on, until the end or until a 9th cluster
 // would open (that visit is left undone, idx still on it). Per visit the same
@@ -320,6 +331,7 @@ bool binning_vectorised() {
   static const bool v = __builtin_cpu_supports("avx512f");
   return v;
 }
+#endif
 
 }  // namespace
 
@@ -340,8 +352,10 @@ uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, 
     for (uint32_t k = 0; k < K; ++k) cnt[k] = 0, sum[k] = 0, sum2[k] = 0;
     uint64_t idx = 0;
     uint32_t t = 0;
+#if FFSEG_X86
     if (K <= 8 && binning_vectorised())
       t = binning_visits_avx512(x, n, stride, &idx, 0, R, S, c, cnt, sum, sum2, &K);
+#endif
     for (; t < n; ++t) {
       const double p = x[idx];
       idx += stride;

@@ -9,6 +9,7 @@
 #include <limits>
 #include <cstdlib>
 
+#include "cpu_x86.h"
 #include "fp_contract_off.h"  // after every other include
 
 namespace ffseg {
@@ -441,6 +442,7 @@ __attribute__((always_inline)) inline void diffuse_sweep(float* buf, float* scra
 void diffuse_sse(float* buf, float* scratch, int64_t E0, int64_t E1, int64_t E2, const float w[3], const float ik[3]) {
   diffuse_sweep<V4, V4i, 4>(buf, scratch, E0, E1, E2, w, ik);
 }
+#if FFSEG_X86
 __attribute__((target("avx2"))) FFSEG_NO_FMA_CONTRACT void diffuse_avx2(float* buf, float* scratch, int64_t E0, int64_t E1, int64_t E2,
                                                   const float w[3], const float ik[3]) {
   diffuse_sweep<V8, V8i, 8>(buf, scratch, E0, E1, E2, w, ik);
@@ -449,6 +451,7 @@ __attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT void diffuse_avx512(flo
                                                        int64_t E2, const float w[3], const float ik[3]) {
   diffuse_sweep<V16, V16i, 16>(buf, scratch, E0, E1, E2, w, ik);
 }
+#endif
 
 }  // namespace
 
@@ -464,18 +467,29 @@ void SmoothedRoi::diffuse(uint32_t iterations) {
   }
   // Same arithmetic in every kernel (bit-identical); the widest the CPU runs.
   const SmoothKernel k = kernel_available(kernel_) ? kernel_ : best_kernel();
+  (void)k;  // only the x86 kernels read it
   for (uint32_t it = 0; it < iterations; ++it) {
-    if (k == SmoothKernel::avx512) diffuse_avx512(buf_, scratch_, E0, E1, E2, w, ik);
-    else if (k == SmoothKernel::avx2) diffuse_avx2(buf_, scratch_, E0, E1, E2, w, ik);
-    else diffuse_sse(buf_, scratch_, E0, E1, E2, w, ik);
+#if FFSEG_X86
+    if (k == SmoothKernel::avx512) {
+      diffuse_avx512(buf_, scratch_, E0, E1, E2, w, ik);
+      continue;
+    }
+    if (k == SmoothKernel::avx2) {
+      diffuse_avx2(buf_, scratch_, E0, E1, E2, w, ik);
+      continue;
+    }
+#endif
+    diffuse_sse(buf_, scratch_, E0, E1, E2, w, ik);
   }
 }
 
 bool SmoothedRoi::kernel_available(SmoothKernel k) {
   switch (k) {
     case SmoothKernel::lanes4: return true;
+#if FFSEG_X86
     case SmoothKernel::avx2: return __builtin_cpu_supports("avx2");
     case SmoothKernel::avx512: return __builtin_cpu_supports("avx512f");
+#endif
     default: return false;
   }
 }
