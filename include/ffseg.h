@@ -155,15 +155,17 @@ typedef struct ffseg_params {
   uint32_t target_mode;         /* FFSEG_TARGET_*; default FFSEG_TARGET_BINARY */
   double lambda_laplacian;      /* lambda_L, Laplacian preservation; (0, 1e6]; default 1 */
   double lambda_position;       /* lambda_p, positional constraints; (0, 1e6]; default 1 */
-  double lambda_uniform;        /* lambda_u, uniform edge length on contours; [0, 1e6]; default 0.25 */
+  double lambda_uniform;        /* lambda_u, uniform edge length on contours, as a tension (edges longer
+                                   than their loop's mean are drawn in); [0, 1e6]; default 0.25 */
   double step_size;             /* alpha: p_i = u_i + alpha (v_i - u_i); (0, 1]; default 0.5 */
   double flip_tau;              /* tau of eq. 4.2.1, edge flips when cos <= tau; [0, 1); default 0.2 */
   double search_range_mm;       /* correspondence search along the normal, mm; [0, 1e4]; 0 = automatic:
                                    80 mm for binary targets, 20 mm for grey levels; default 0 */
   double search_step_mm;        /* sample spacing along the normal, mm; 0 = half the smallest
                                    voxel spacing; [0, 100]; default 0 */
-  double convergence_mm;        /* converged when every object's mean displacement is below;
-                                   [0, 100]; default 0.05 */
+  double convergence_mm;        /* converged when every object's mean displacement is below (binary
+                                   targets: and at most 1% of its vertices move more than 4x it, 0.75x
+                                   while polishing); [0, 100]; default 0.05 */
   uint32_t diffusion_iterations; /* rounds of displacement averaging (eq. 4.2.2); 0..100; 0 = automatic:
                                     20 (n / 33)^2 for mesh resolution n (1 at least); with binary targets,
                                     once an object has come to rest it polishes with a twentieth of the
