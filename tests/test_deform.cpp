@@ -256,6 +256,23 @@ TEST_CASE("a converged object stays where it is on later steps, until new parame
   CHECK(info.mean_displacement_mm[0] > 0.0);
   REQUIRE(extract(eb.e, 0, &later, &tris));
   CHECK(later != at_rest);
+  // So does a new volume (a smaller ball): the mesh shrinks onto it.
+  p.lambda_laplacian = 1;
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  for (int s = 0; s < 150 && ffseg_step(eb.e, &info) != FFSEG_CONVERGED; ++s) {
+  }
+  const Phantom small = ball_phantom(64, c, 14);
+  ffseg_volume v2 = make_volume(small.mask.data(), FFSEG_U8, small.dims, small.affine);
+  REQUIRE(ffseg_set_volume(eb.e, &v2) == FFSEG_OK);
+  REQUIRE(ffseg_step(eb.e, &info) == FFSEG_OK);
+  CHECK(info.mean_displacement_mm[0] > 0.5);
+  // And placing the object again starts it over.
+  for (int s = 0; s < 150 && ffseg_step(eb.e, &info) != FFSEG_CONVERGED; ++s) {
+  }
+  REQUIRE(ffseg_step(eb.e, &info) == FFSEG_CONVERGED);
+  REQUIRE(ffseg_init_sphere(eb.e, 0, small.center, 5) == FFSEG_OK);
+  REQUIRE(ffseg_step(eb.e, &info) == FFSEG_OK);
+  CHECK(info.mean_displacement_mm[0] > 0.5);
 }
 
 TEST_CASE("stepping on at rest does not roughen the mesh (150 steps, convergence never reached)") {
