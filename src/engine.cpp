@@ -286,7 +286,7 @@ uint32_t polish_rounds(uint32_t rounds) {
   return r < 1 ? 1u : r;
 }
 
-// Rounds are always even (kEvenRounds). One round, eq. 4.2.2, is the mean over
+// Rounds are always even (step_object rounds an odd count up). One round, eq. 4.2.2, is the mean over
 // a vertex and its four neighbours: on the quad grid it maps the checkerboard
 // mode (neighbours displaced in opposite senses) to -0.6 times itself, so an
 // odd number of rounds turns the finest ripple of the displacement field
@@ -295,7 +295,6 @@ uint32_t polish_rounds(uint32_t rounds) {
 // 0.983 over 140 steps; Colin27 meshes at n = 12, three rounds: half their
 // edges bent by more than 11 degrees, the guard refusing creases every step).
 // An even count makes every mode's factor (1 + lambda)^(2k) / 25^k >= 0.
-constexpr bool kEvenRounds = true;
 
 uint32_t diffusion_rounds(uint32_t n) {
   const long r = std::lround(20.0 * (double(n) / 33.0) * (double(n) / 33.0));
@@ -332,9 +331,7 @@ Err Engine::step(StepReport* r) {
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     if (!objects_[i].placed) continue;
     // A converged object stays where it is: it has reached the rest the
-    // caller asked for, and further steps would only add wear (a mesh kept
-    // stepping at rest slowly roughens: the sphere phantom's Dice falls from
-    // 0.999 to 0.983 over 140 more steps).
+    // caller asked for, and further steps would only cost time.
     if (objects_[i].converged) {
       ++active;
       continue;
@@ -347,9 +344,8 @@ Err Engine::step(StepReport* r) {
     // smoothing the mesh follows the noise (right-hemisphere Colin27 mean Dice
     // 0.511 -> 0.492 when polishing), so they converge at the first rest.
     Object& o = objects_[i];
-    const bool rest = active < kReportObjects ? still(*r, active, mesh_.nv, params_.convergence_mm,
-                                                                    params_.target_mode == TargetMode::binary) : true;
     const bool polishes = params_.target_mode == TargetMode::binary;
+    const bool rest = active < kReportObjects ? still(*r, active, mesh_.nv, params_.convergence_mm, polishes) : true;
     if (!rest || (polishes && !o.polish)) all_converged = false;
     else o.converged = true;
     if (rest && polishes) o.polish = true;
@@ -487,7 +483,7 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
   harmonic_fill(mesh_, s.disp, s.has, s.queue, kFillSweeps, kFillTolMm);
   uint32_t rounds = params_.diffusion_iterations ? params_.diffusion_iterations : diffusion_rounds(mesh_.n);
   if (o.polish) rounds = polish_rounds(rounds);
-  if (kEvenRounds) rounds += rounds & 1;
+  rounds += rounds & 1;  // even (see diffusion_rounds)
   diffuse_displacements(mesh_, rounds, s.disp, s.has, s.tmp, s.tmp_has);
   lap(kStageDiffusion);
 

@@ -112,33 +112,18 @@ bool SmoothedRoi::copy_integer(const VolumeView& vol, double* vmin, double* vmax
   const double slope = vol.slope(), icpt = vol.intercept();
   if (!integer_copy_applies(vol)) return false;
   double rlo = 0, rhi = 0;
+  auto copy = [&](auto type_tag) {
+    using T = decltype(type_tag);
+    T a, b;
+    copy_rows<T>(vol.origin(), vol.strides(), glo_, ext_, ax_, slope, icpt, buf_, &a, &b);
+    rlo = a, rhi = b;
+  };
   switch (vol.type()) {
-    case VoxelType::U8: {
-      uint8_t a, b;
-      copy_rows<uint8_t>(vol.origin(), vol.strides(), glo_, ext_, ax_, slope, icpt, buf_, &a, &b);
-      rlo = a, rhi = b;
-      break;
-    }
-    case VoxelType::I16: {
-      int16_t a, b;
-      copy_rows<int16_t>(vol.origin(), vol.strides(), glo_, ext_, ax_, slope, icpt, buf_, &a, &b);
-      rlo = a, rhi = b;
-      break;
-    }
-    case VoxelType::U16: {
-      uint16_t a, b;
-      copy_rows<uint16_t>(vol.origin(), vol.strides(), glo_, ext_, ax_, slope, icpt, buf_, &a, &b);
-      rlo = a, rhi = b;
-      break;
-    }
-    case VoxelType::I32: {
-      int32_t a, b;
-      copy_rows<int32_t>(vol.origin(), vol.strides(), glo_, ext_, ax_, slope, icpt, buf_, &a, &b);
-      rlo = a, rhi = b;
-      break;
-    }
-    default:
-      return false;
+    case VoxelType::U8: copy(uint8_t{}); break;
+    case VoxelType::I16: copy(int16_t{}); break;
+    case VoxelType::U16: copy(uint16_t{}); break;
+    case VoxelType::I32: copy(int32_t{}); break;
+    default: return false;
   }
   const double x0 = slope * rlo + icpt, x1 = slope * rhi + icpt;
   *vmin = slope > 0 ? x0 : x1;

@@ -244,6 +244,17 @@ class BoxGrid : public CellTable {
       return p[0] != q[0] && p[0] != q[1] && p[0] != q[2] && p[1] != q[0] && p[1] != q[1] && p[1] != q[2] &&
              p[2] != q[0] && p[2] != q[1] && p[2] != q[2];
     };
+    // Entries k and l pair here: the same cell, this cell owns the pair, the
+    // boxes overlap (closed) and the labels share no vertex.
+    auto meets = [&](uint32_t k, uint32_t l) {
+      if (key_[l] != key_[k] || ((ids_[l] | ids_[k]) >> kLowShift) != 7) return false;
+      const uint32_t ik = ids_[k] & kIdMask, il = ids_[l] & kIdMask;
+      const double *lk = lo + 3 * size_t(ik), *hk = hi + 3 * size_t(ik);
+      const double *ll = lo + 3 * size_t(il), *hl = hi + 3 * size_t(il);
+      if (ll[0] > hk[0] || lk[0] > hl[0] || ll[1] > hk[1] || lk[1] > hl[1] || ll[2] > hk[2] || lk[2] > hl[2])
+        return false;
+      return disjoint(tris + 3 * size_t(ik), tris + 3 * size_t(il));
+    };
     for (uint32_t hb = 0; hb < table_; ++hb) {
       const uint32_t k0 = start_[hb], e = start_[hb + 1];
       if (e - k0 < 2) continue;
@@ -260,36 +271,20 @@ class BoxGrid : public CellTable {
         }
         std::sort(w, w + c, [](const Sweep& p, const Sweep& q) { return p.x < q.x || (p.x == q.x && p.k < q.k); });
         for (uint32_t i = 0; i + 1 < c; ++i) {
-          const uint32_t k = w[i].k, kk = key_[k], ik = ids_[k];
-          const double *lk = lo + 3 * size_t(ik & kIdMask), *hk = hi + 3 * size_t(ik & kIdMask);
-          for (uint32_t j = i + 1; j < c && !(w[j].x > hk[0]); ++j) {
-            const uint32_t l = w[j].k;
-            if (key_[l] != kk || ((ids_[l] | ik) >> kLowShift) != 7) continue;
-            const uint32_t il = ids_[l] & kIdMask;
-            const double *ll = lo + 3 * size_t(il), *hl = hi + 3 * size_t(il);
-            if (ll[0] > hk[0] || lk[0] > hl[0] || ll[1] > hk[1] || lk[1] > hl[1] || ll[2] > hk[2] || lk[2] > hl[2])
-              continue;
-            if (!disjoint(tris + 3 * size_t(ik & kIdMask), tris + 3 * size_t(il))) continue;
-            const uint32_t a = ik & kIdMask;
+          const uint32_t k = w[i].k, a = ids_[k] & kIdMask;
+          const double hx = hi[3 * size_t(a)];
+          for (uint32_t j = i + 1; j < c && !(w[j].x > hx); ++j) {
+            const uint32_t l = w[j].k, il = ids_[l] & kIdMask;
+            if (!meets(k, l)) continue;
             if (a < il ? f(a, il) : f(il, a)) return true;
           }
         }
         continue;
       }
       if (e - k0 > kLocal) {
-        for (uint32_t k = k0; k + 1 < e; ++k) {
-          const uint32_t kk = key_[k], ik = ids_[k];
-          const double *lk = lo + 3 * size_t(ik & kIdMask), *hk = hi + 3 * size_t(ik & kIdMask);
-          for (uint32_t l = k + 1; l < e; ++l) {
-            if (key_[l] != kk || ((ids_[l] | ik) >> kLowShift) != 7) continue;
-            const uint32_t il = ids_[l] & kIdMask;
-            const double *ll = lo + 3 * size_t(il), *hl = hi + 3 * size_t(il);
-            if (ll[0] > hk[0] || lk[0] > hl[0] || ll[1] > hk[1] || lk[1] > hl[1] || ll[2] > hk[2] || lk[2] > hl[2])
-              continue;
-            if (!disjoint(tris + 3 * size_t(ik & kIdMask), tris + 3 * size_t(il))) continue;
-            if (f(ik & kIdMask, il)) return true;
-          }
-        }
+        for (uint32_t k = k0; k + 1 < e; ++k)
+          for (uint32_t l = k + 1; l < e; ++l)
+            if (meets(k, l) && f(ids_[k] & kIdMask, ids_[l] & kIdMask)) return true;
         continue;
       }
       for (uint32_t k = k0; k < e; ++k) {
