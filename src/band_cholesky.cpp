@@ -357,8 +357,54 @@ constexpr double kMaxDouble = 1.79769313486231570815e308;
 inline std::size_t group_width(uint32_t g, uint32_t start) { return std::size_t(4) * g + 4 - start; }
 
 // Returns kOk or a negative code; *bad_row = new index of the failing pivot.
+// Forward substitution of group g: rows 4g..4g+3 of L z = y, for three
+// permuted right-hand sides (earlier rows already solved).
 template <class K>
-inline int factor_impl(const View& v, uint32_t* bad_row) {
+inline void forward_group(const View& v, uint32_t g, double* const y[3]) {
+  double acc[12];
+  const uint32_t r = 4 * g;
+  const uint32_t sr = v.gstart[g];
+  const std::size_t wr = group_width(g, sr);
+  const double* R = v.val + v.goff[g];
+  K::dot4x3(R, wr, y[0] + sr, y[1] + sr, y[2] + sr, r - sr, acc);
+  const double* D = R + (r - sr);
+  for (int i = 0; i < 4; ++i) {
+    const double* di = D + i * wr;
+    for (int q = 0; q < 3; ++q) {
+      double t = y[q][r + i] - acc[3 * i + q];
+      for (int m = 0; m < i; ++m) t -= di[m] * y[q][r + m];
+      y[q][r + i] = t * v.invdiag[r + i];
+    }
+  }
+}
+
+// Backward substitution L^T x = z of all groups, in place.
+template <class K>
+inline void backward_all(const View& v, double* const y[3]) {
+  double x[12];
+  for (uint32_t g = v.ngroups; g-- > 0;) {
+    const uint32_t r = 4 * g;
+    const uint32_t sr = v.gstart[g];
+    const std::size_t wr = group_width(g, sr);
+    const double* R = v.val + v.goff[g];
+    const double* D = R + (r - sr);
+    for (int i = 3; i >= 0; --i) {
+      for (int q = 0; q < 3; ++q) {
+        double t = y[q][r + i];
+        for (int m = i + 1; m < 4; ++m) t -= D[m * wr + i] * x[3 * m + q];
+        t *= v.invdiag[r + i];
+        x[3 * i + q] = t;
+        y[q][r + i] = t;
+      }
+    }
+    K::axpy4x3(R, wr, x, y[0] + sr, y[1] + sr, y[2] + sr, r - sr);
+  }
+}
+
+// rhs: three permuted right-hand sides to forward-substitute group by group as
+// the factor's rows are completed (still in cache), or nullptr.
+template <class K>
+inline int factor_impl(const View& v, uint32_t* bad_row, double* const* rhs) {
   double acc[16];
   for (uint32_t g = 0; g < v.ngroups; ++g) {
     const uint32_t r = 4 * g;
@@ -406,72 +452,40 @@ inline int factor_impl(const View& v, uint32_t* bad_row) {
         di[j] = y * id;
       }
     }
+    if (rhs) forward_group<K>(v, g, rhs);
   }
   return EnvelopeCholesky::kOk;
 }
 
-// y0..y2: permuted right-hand sides (npad each), solved in place.
+// y0..y2: permuted right-hand sides (npad each), solved in place; forward
+// false: the forward half was done during the factorisation (factor_impl).
 template <class K>
-inline void solve_impl(const View& v, double* y0, double* y1, double* y2) {
-  double acc[12];
-  double x[12];
-  double* y[3] = {y0, y1, y2};
-  // Forward: L z = y.
-  for (uint32_t g = 0; g < v.ngroups; ++g) {
-    const uint32_t r = 4 * g;
-    const uint32_t sr = v.gstart[g];
-    const std::size_t wr = group_width(g, sr);
-    const double* R = v.val + v.goff[g];
-    K::dot4x3(R, wr, y0 + sr, y1 + sr, y2 + sr, r - sr, acc);
-    const double* D = R + (r - sr);
-    for (int i = 0; i < 4; ++i) {
-      const double* di = D + i * wr;
-      for (int q = 0; q < 3; ++q) {
-        double t = y[q][r + i] - acc[3 * i + q];
-        for (int m = 0; m < i; ++m) t -= di[m] * y[q][r + m];
-        y[q][r + i] = t * v.invdiag[r + i];
-      }
-    }
-  }
-  // Backward: L^T x = z.
-  for (uint32_t g = v.ngroups; g-- > 0;) {
-    const uint32_t r = 4 * g;
-    const uint32_t sr = v.gstart[g];
-    const std::size_t wr = group_width(g, sr);
-    const double* R = v.val + v.goff[g];
-    const double* D = R + (r - sr);
-    for (int i = 3; i >= 0; --i) {
-      for (int q = 0; q < 3; ++q) {
-        double t = y[q][r + i];
-        for (int m = i + 1; m < 4; ++m) t -= D[m * wr + i] * x[3 * m + q];
-        t *= v.invdiag[r + i];
-        x[3 * i + q] = t;
-        y[q][r + i] = t;
-      }
-    }
-    K::axpy4x3(R, wr, x, y0 + sr, y1 + sr, y2 + sr, r - sr);
-  }
+inline void solve_impl(const View& v, double* y0, double* y1, double* y2, bool forward) {
+  double* const y[3] = {y0, y1, y2};
+  if (forward)
+    for (uint32_t g = 0; g < v.ngroups; ++g) forward_group<K>(v, g, y);
+  backward_all<K>(v, y);
 }
 
-__attribute__((flatten)) int factor_portable(const View& v, uint32_t* bad) {
-  return factor_impl<KPortable>(v, bad);
+__attribute__((flatten)) int factor_portable(const View& v, uint32_t* bad, double* const* y) {
+  return factor_impl<KPortable>(v, bad, y);
 }
-__attribute__((flatten)) void solve_portable(const View& v, double* a, double* b, double* c) {
-  solve_impl<KPortable>(v, a, b, c);
+__attribute__((flatten)) void solve_portable(const View& v, double* a, double* b, double* c, bool fwd) {
+  solve_impl<KPortable>(v, a, b, c, fwd);
 }
 #if FFSEG_BC_X86
-FFSEG_AVX2 __attribute__((flatten)) int factor_avx2(const View& v, uint32_t* bad) {
-  return factor_impl<KAvx2>(v, bad);
+FFSEG_AVX2 __attribute__((flatten)) int factor_avx2(const View& v, uint32_t* bad, double* const* y) {
+  return factor_impl<KAvx2>(v, bad, y);
 }
-FFSEG_AVX2 __attribute__((flatten)) void solve_avx2(const View& v, double* a, double* b, double* c) {
-  solve_impl<KAvx2>(v, a, b, c);
+FFSEG_AVX2 __attribute__((flatten)) void solve_avx2(const View& v, double* a, double* b, double* c, bool fwd) {
+  solve_impl<KAvx2>(v, a, b, c, fwd);
 }
-FFSEG_AVX512 __attribute__((flatten)) int factor_avx512(const View& v, uint32_t* bad) {
-  return factor_impl<KAvx512>(v, bad);
+FFSEG_AVX512 __attribute__((flatten)) int factor_avx512(const View& v, uint32_t* bad, double* const* y) {
+  return factor_impl<KAvx512>(v, bad, y);
 }
 FFSEG_AVX512 __attribute__((flatten)) void solve_avx512(const View& v, double* a, double* b,
-                                                       double* c) {
-  solve_impl<KAvx512>(v, a, b, c);
+                                                       double* c, bool fwd) {
+  solve_impl<KAvx512>(v, a, b, c, fwd);
 }
 #endif
 
@@ -620,7 +634,7 @@ bool EnvelopeCholesky::init(Arena& arena, const CsrGraph& g, uint64_t capacity,
 }
 
 void EnvelopeCholesky::clear() {
-  factored_ = false;
+  factored_ = forwarded_ = false;
   bad_entry_ = false;
   failed_row_ = -1;
   if (!ready_) return;
@@ -634,7 +648,7 @@ void EnvelopeCholesky::clear() {
 }
 
 void EnvelopeCholesky::assign_sorted(const uint64_t* off, const double* v, std::size_t count) {
-  factored_ = false;
+  factored_ = forwarded_ = false;
   bad_entry_ = false;
   failed_row_ = -1;
   if (!ready_) return;
@@ -657,8 +671,20 @@ double EnvelopeCholesky::get(uint32_t i, uint32_t j) const {
   return p ? *p : 0.0;
 }
 
-int EnvelopeCholesky::factor() {
-  factored_ = false;
+int EnvelopeCholesky::factor() { return factor_with(nullptr); }
+
+int EnvelopeCholesky::factor_forward(const double* b, std::size_t ld) {
+  forwarded_ = false;
+  if (!ready_ || b == nullptr) return kNotReady;
+  double* y[3] = {work_, work_ + npad_, work_ + 2 * std::size_t(npad_)};
+  load_permuted(b, 3, ld, y);
+  const int rc = factor_with(y);
+  forwarded_ = rc == kOk;
+  return rc;
+}
+
+int EnvelopeCholesky::factor_with(double* const* y) {
+  factored_ = forwarded_ = false;
   failed_row_ = -1;
   if (!ready_) return kNotReady;
   if (bad_entry_) return kOutOfPattern;
@@ -668,14 +694,14 @@ int EnvelopeCholesky::factor() {
   switch (active_kernel()) {
 #if FFSEG_BC_X86
     case Kernel::avx512:
-      rc = factor_avx512(v, &bad);
+      rc = factor_avx512(v, &bad, y);
       break;
     case Kernel::avx2:
-      rc = factor_avx2(v, &bad);
+      rc = factor_avx2(v, &bad, y);
       break;
 #endif
     default:
-      rc = factor_portable(v, &bad);
+      rc = factor_portable(v, &bad, y);
       break;
   }
   if (rc != kOk) {
@@ -686,41 +712,61 @@ int EnvelopeCholesky::factor() {
   return kOk;
 }
 
+void EnvelopeCholesky::load_permuted(const double* b, int cnt, std::size_t ld, double* const* y) const {
+  for (int q = 0; q < 3; ++q) {
+    if (q < cnt) {
+      const double* src = b + std::size_t(q) * ld;
+      for (uint32_t i = 0; i < n_; ++i) y[q][i] = src[perm_[i]];
+      for (uint32_t i = n_; i < npad_; ++i) y[q][i] = 0.0;
+    } else {
+      std::memset(y[q], 0, npad_ * sizeof(double));
+    }
+  }
+}
+
+void EnvelopeCholesky::substitute(double* const* y, bool forward) const {
+  const View v{ngroups_, gstart_, goff_, val_, invdiag_};
+  switch (active_kernel()) {
+#if FFSEG_BC_X86
+    case Kernel::avx512:
+      solve_avx512(v, y[0], y[1], y[2], forward);
+      break;
+    case Kernel::avx2:
+      solve_avx2(v, y[0], y[1], y[2], forward);
+      break;
+#endif
+    default:
+      solve_portable(v, y[0], y[1], y[2], forward);
+      break;
+  }
+}
+
 int EnvelopeCholesky::solve(double* b, int nrhs, std::size_t ld) {
+  forwarded_ = false;
   if (!ready_ || !factored_) return kNotReady;
   if (nrhs <= 0) return kOk;
   if (b == nullptr) return kNotReady;
-  const View v{ngroups_, gstart_, goff_, val_, invdiag_};
-  const Kernel k = active_kernel();
   double* y[3] = {work_, work_ + npad_, work_ + 2 * std::size_t(npad_)};
   for (int r0 = 0; r0 < nrhs; r0 += 3) {
     const int cnt = nrhs - r0 < 3 ? nrhs - r0 : 3;
-    for (int q = 0; q < 3; ++q) {
-      if (q < cnt) {
-        const double* src = b + std::size_t(r0 + q) * ld;
-        for (uint32_t i = 0; i < n_; ++i) y[q][i] = src[perm_[i]];
-        for (uint32_t i = n_; i < npad_; ++i) y[q][i] = 0.0;
-      } else {
-        std::memset(y[q], 0, npad_ * sizeof(double));
-      }
-    }
-    switch (k) {
-#if FFSEG_BC_X86
-      case Kernel::avx512:
-        solve_avx512(v, y[0], y[1], y[2]);
-        break;
-      case Kernel::avx2:
-        solve_avx2(v, y[0], y[1], y[2]);
-        break;
-#endif
-      default:
-        solve_portable(v, y[0], y[1], y[2]);
-        break;
-    }
+    load_permuted(b + std::size_t(r0) * ld, cnt, ld, y);
+    substitute(y, true);
     for (int q = 0; q < cnt; ++q) {
       double* dst = b + std::size_t(r0 + q) * ld;
       for (uint32_t i = 0; i < n_; ++i) dst[perm_[i]] = y[q][i];
     }
+  }
+  return kOk;
+}
+
+int EnvelopeCholesky::solve_forwarded(double* x, std::size_t ld) {
+  if (!ready_ || !factored_ || !forwarded_ || x == nullptr) return kNotReady;
+  forwarded_ = false;
+  double* y[3] = {work_, work_ + npad_, work_ + 2 * std::size_t(npad_)};
+  substitute(y, false);
+  for (int q = 0; q < 3; ++q) {
+    double* dst = x + std::size_t(q) * ld;
+    for (uint32_t i = 0; i < n_; ++i) dst[perm_[i]] = y[q][i];
   }
   return kOk;
 }

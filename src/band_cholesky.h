@@ -124,6 +124,16 @@ class EnvelopeCholesky {
   // numbering), three at a time. Requires a successful factor(); returns
   // kNotReady otherwise.
   int solve(double* b, int nrhs, std::size_t ld);
+  // factor() fused with the forward half of solve() for three right-hand
+  // sides b + r * ld (read only): each group of rows is forward-substituted
+  // as soon as it is factored, while it is still in cache, instead of in a
+  // second pass over the whole factor. solve_forwarded() then does the
+  // backward half and writes the three solutions to x + r * ld (x may be b).
+  // The results are bit for bit those of factor() + solve(b, 3, ld).
+  // Any other call between the two (clear(), assembly, solve()) drops the
+  // forward result: solve_forwarded() then returns kNotReady.
+  int factor_forward(const double* b, std::size_t ld);
+  int solve_forwarded(double* x, std::size_t ld);
 
   uint32_t size() const { return n_; }
   uint32_t bandwidth() const { return bandwidth_; }
@@ -144,6 +154,13 @@ class EnvelopeCholesky {
   static const char* kernel_name(Kernel k);
 
  private:
+  int factor_with(double* const* y);
+  // Permuted copies of cnt columns b + q * ld into y[0..2] (zero columns
+  // and padding beyond).
+  void load_permuted(const double* b, int cnt, std::size_t ld, double* const* y) const;
+  // Triangular solves on permuted columns y[0..2] (forward false: backward only).
+  void substitute(double* const* y, bool forward) const;
+
   // Storage of entry (i, j) in original numbering, or nullptr outside the
   // envelope / for indices >= n.
   inline double* slot(uint32_t i, uint32_t j) const {
@@ -176,6 +193,7 @@ class EnvelopeCholesky {
   double* work_ = nullptr;      // 3 * npad: solve
   bool ready_ = false;
   bool factored_ = false;
+  bool forwarded_ = false;  // work_ holds the forward result of factor_forward()
   bool bad_entry_ = false;
   int64_t failed_row_ = -1;
 };

@@ -530,14 +530,16 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
   }
   laplacian_rhs(mesh_, params_.lambda_laplacian, params_.lambda_uniform, x, s.target, s.weight, s.rhs, s.tmp);
   lap(kStageAssembly);
-  const int fr = s.solver.factor();
+  // The factorisation forward-substitutes the three right-hand sides as it
+  // goes (each row group while in cache); the solve stage is the backward half.
+  const int fr = s.solver.factor_forward(s.rhs, nv);
   lap(kStageFactor);
   if (fr != EnvelopeCholesky::kOk) {
     std::snprintf(msg_, kMsgLen, "step: factorisation failed (code %d, row %lld); mesh unchanged", fr,
                   (long long)s.solver.failed_row());
     return Err::numeric;
   }
-  s.solver.solve(s.rhs, 3, nv);
+  s.solver.solve_forwarded(s.rhs, nv);
   lap(kStageSolve);
   for (size_t q = 0; q < size_t(3) * nv; ++q)
     if (!std::isfinite(s.rhs[q])) {

@@ -359,6 +359,55 @@ TEST_CASE("cholesky: random SPD envelope matrices match Eigen, any nrhs and ld")
   }
 }
 
+TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit for bit, all kernels") {
+  KernelGuard guard;
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  for (uint32_t n : {2u, 5u, 12u, 21u}) {
+    Mesh mesh(n);
+    const uint32_t nv = mesh.m.nv;
+    const Graph g = two_ring(mesh.m);
+    std::vector<double> w(nv);
+    for (uint32_t i = 0; i < nv; ++i) w[i] = 0.25 + 3 * U(rng);
+    const std::vector<Entry> t = cube_sphere_system(mesh.m, 1.0, 1.0, 0.25, w);
+    const std::size_t ld = nv + 3;  // a leading dimension larger than nv
+    std::vector<double> B(3 * ld);
+    for (double& b : B) b = 200 * U(rng) - 100;
+    Solver s(g.csr());
+    REQUIRE(s.ok);
+    for (Kernel k : kernels()) {
+      CAPTURE(n);
+      CAPTURE(EnvelopeCholesky::kernel_name(k));
+      EnvelopeCholesky::set_kernel(k);
+      s.chol.clear();
+      for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
+      REQUIRE(s.chol.factor() == EnvelopeCholesky::kOk);
+      std::vector<double> ref = B;
+      REQUIRE(s.chol.solve(ref.data(), 3, ld) == EnvelopeCholesky::kOk);
+      // Not forwarded: the plain solve left nothing for solve_forwarded.
+      std::vector<double> x(3 * ld, -7.0);
+      CHECK(s.chol.solve_forwarded(x.data(), ld) == EnvelopeCholesky::kNotReady);
+
+      s.chol.clear();
+      for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
+      const std::vector<double> b_before = B;
+      REQUIRE(s.chol.factor_forward(B.data(), ld) == EnvelopeCholesky::kOk);
+      CHECK(B == b_before);  // read only
+      REQUIRE(s.chol.solve_forwarded(x.data(), ld) == EnvelopeCholesky::kOk);
+      for (int q = 0; q < 3; ++q)
+        for (uint32_t i = 0; i < nv; ++i) REQUIRE(x[q * ld + i] == ref[q * ld + i]);  // bit for bit
+      for (std::size_t i = nv; i < ld; ++i) CHECK(x[i] == -7.0);  // beyond nv untouched
+      // Once only; and a clear() in between drops the forward result.
+      CHECK(s.chol.solve_forwarded(x.data(), ld) == EnvelopeCholesky::kNotReady);
+      s.chol.clear();
+      for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
+      REQUIRE(s.chol.factor_forward(B.data(), ld) == EnvelopeCholesky::kOk);
+      s.chol.clear();
+      CHECK(s.chol.solve_forwarded(x.data(), ld) == EnvelopeCholesky::kNotReady);
+    }
+  }
+}
+
 TEST_CASE("cholesky: portable, AVX2 and AVX-512 kernels agree on the factor") {
   KernelGuard guard;
   Mesh mesh(11);

@@ -78,6 +78,9 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
   if (const char* e = std::getenv("FFSEG_NB")) p.consecutive_background = uint32_t(std::atoi(e));
   if (const char* e = std::getenv("FFSEG_DIFF")) p.diffusion_iterations = uint32_t(std::atoi(e));
   if (const char* e = std::getenv("FFSEG_LL")) p.lambda_laplacian = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_LU")) p.lambda_uniform = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_LP")) p.lambda_position = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_TAU")) p.flip_tau = std::atof(e);
   REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
   ffseg_volume v = volume_of(t1);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
