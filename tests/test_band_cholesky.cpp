@@ -359,6 +359,12 @@ TEST_CASE("cholesky: random SPD envelope matrices match Eigen, any nrhs and ld")
   }
 }
 
+// The matrix t, freshly assembled into c.
+static void load(EnvelopeCholesky& c, const std::vector<Entry>& t) {
+  c.clear();
+  for (const Entry& e : t) c.add(e.i, e.j, e.v);
+}
+
 TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit for bit, all kernels") {
   KernelGuard guard;
   std::mt19937_64 rng(77);
@@ -379,8 +385,7 @@ TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit f
       CAPTURE(n);
       CAPTURE(EnvelopeCholesky::kernel_name(k));
       EnvelopeCholesky::set_kernel(k);
-      s.chol.clear();
-      for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
+      load(s.chol, t);
       REQUIRE(s.chol.factor() == EnvelopeCholesky::kOk);
       std::vector<double> ref = B;
       REQUIRE(s.chol.solve(ref.data(), 3, ld) == EnvelopeCholesky::kOk);
@@ -388,8 +393,7 @@ TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit f
       std::vector<double> x(3 * ld, -7.0);
       CHECK(s.chol.solve_forwarded(x.data(), ld) == EnvelopeCholesky::kNotReady);
 
-      s.chol.clear();
-      for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
+      load(s.chol, t);
       const std::vector<double> b_before = B;
       REQUIRE(s.chol.factor_forward(B.data(), ld) == EnvelopeCholesky::kOk);
       CHECK(B == b_before);  // read only
@@ -399,8 +403,7 @@ TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit f
       for (std::size_t i = nv; i < ld; ++i) CHECK(x[i] == -7.0);  // beyond nv untouched
       // Once only; and a clear() in between drops the forward result.
       CHECK(s.chol.solve_forwarded(x.data(), ld) == EnvelopeCholesky::kNotReady);
-      s.chol.clear();
-      for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
+      load(s.chol, t);
       REQUIRE(s.chol.factor_forward(B.data(), ld) == EnvelopeCholesky::kOk);
       s.chol.clear();
       CHECK(s.chol.solve_forwarded(x.data(), ld) == EnvelopeCholesky::kNotReady);
