@@ -26,6 +26,20 @@ constexpr double kDj = 1.17e-7, kDk = 2.31e-7;
 // Twice the signed area of (a, b, p) in the (j, k) plane, evaluated with the
 // lower vertex index first so that the two triangles sharing an edge see exactly
 // opposite values: a ray is then counted by exactly one of them.
+// The voxel rows lo..hi (clamped to 0..n-1) whose shifted centres lie in
+// [a, b]; empty (lo > hi) when none does or a bound is NaN. Clamped before
+// the conversion: a vertex far off the grid must not overflow int64_t.
+inline void centre_range(double a, double b, double shift, int64_t n, int64_t* lo, int64_t* hi) {
+  const double l = std::ceil(a - shift), h = std::floor(b - shift);
+  if (!(l <= h && h >= 0 && l <= double(n - 1))) {
+    *lo = 1;
+    *hi = 0;
+    return;
+  }
+  *lo = l > 0 ? int64_t(l) : 0;
+  *hi = h < double(n - 1) ? int64_t(h) : n - 1;
+}
+
 inline double edge_fn(const double* pa, uint32_t ia, const double* pb, uint32_t ib, double pj, double pk) {
   if (ia > ib) return -edge_fn(pb, ib, pa, ia, pj, pk);
   return (pb[1] - pa[1]) * (pk - pa[2]) - (pb[2] - pa[2]) * (pj - pa[1]);
@@ -59,12 +73,9 @@ void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol,
         mnj = std::fmin(mnj, p[c][1]); mxj = std::fmax(mxj, p[c][1]);
         mnk = std::fmin(mnk, p[c][2]); mxk = std::fmax(mxk, p[c][2]);
       }
-      int64_t j0 = int64_t(std::ceil(mnj - kDj)), j1 = int64_t(std::floor(mxj - kDj));
-      int64_t k0 = int64_t(std::ceil(mnk - kDk)), k1 = int64_t(std::floor(mxk - kDk));
-      if (j0 < 0) j0 = 0;
-      if (k0 < 0) k0 = 0;
-      if (j1 > D[1] - 1) j1 = D[1] - 1;
-      if (k1 > D[2] - 1) k1 = D[2] - 1;
+      int64_t j0, j1, k0, k1;
+      centre_range(mnj, mxj, kDj, D[1], &j0, &j1);
+      centre_range(mnk, mxk, kDk, D[2], &k0, &k1);
       for (int64_t k = k0; k <= k1; ++k)
         for (int64_t j = j0; j <= j1; ++j) {
           const double pj = double(j) + kDj, pk = double(k) + kDk;

@@ -435,3 +435,25 @@ TEST_CASE("cube-sphere face adjacency: every face edge has the face across it, s
       for (int q = 0; q < 4; ++q) CHECK(m.vfaces[4 * v + q] != ffseg::kNone);
   }
 }
+
+TEST_CASE("rasterize: a sphere far larger than the grid rasterizes without overflow") {
+  // Mesh indices of +-1e20 voxels once overflowed the integer row range
+  // (UBSan finding of fuzz_volume, kept as fuzz/corpus/volume/regress-rasterize-far-vertex).
+  const int64_t dims[3] = {6, 5, 4};
+  std::vector<uint8_t> vox(6 * 5 * 4, 1);
+  const double A[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  ffseg_test::EngineBox eb(1, 4);
+  REQUIRE(eb.e);
+  const ffseg_volume v = ffseg_test::make_volume(vox.data(), FFSEG_U8, dims, A);
+  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
+  const double c[3] = {2.5, 2, 1.5};
+  std::vector<uint8_t> mask(vox.size(), 7);
+  for (double r : {1e5, 1e20, 3e21}) {
+    CAPTURE(r);
+    REQUIRE(ffseg_init_sphere(eb.e, 0, c, r) == FFSEG_OK);
+    REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
+    // At 1e5 mm every voxel centre is inside; at 1e20 mm the edge functions
+    // cannot resolve a 1 mm grid (they round), so only a mask of 0 and 1.
+    for (uint8_t m : mask) REQUIRE((r < 1e10 ? m == 1 : m <= 1));
+  }
+}
