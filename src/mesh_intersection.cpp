@@ -1,6 +1,7 @@
 #include "mesh_intersection.h"
 
 #include <cmath>
+#include <utility>
 
 #include "rasterize.h"
 
@@ -39,6 +40,7 @@ void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
   face_alt_old = a.alloc<uint8_t>(m.nfaces);
   face_alt_new = a.alloc<uint8_t>(m.nfaces);
   grid.carve(a, nt);
+  cert.carve(a, m);
   tracked = false;
 }
 
@@ -382,6 +384,51 @@ void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double r
   layout_enum(m, s, h0, nullptr, true);
 }
 
+// Whether any pair crosses, from the patch certificate: the windows that
+// pass need no test, the clusters of the failed ones are tested against
+// their whole window, and far cluster pairs with overlapping boxes pair by
+// pair; each pair by the same decision as the grid path (the same boxes and
+// bounding spheres, then triangles_cross). Returns 0 or 1, or -1 when the
+// certificate cannot decide (too many windows fail): then the grid path.
+int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
+  PatchCertificate& c = s.cert;
+  if (!c.built) c.build(m);
+  const uint32_t max_failed = c.ncl / 8;
+  if (!c.certify(m, x, s.normal, s.lo, s.hi, max_failed)) return -1;
+  Pairs P{m, x, s, nullptr, false};
+  auto decide = [&](uint32_t t, uint32_t u) {
+    if (t == u) return false;
+    if (t > u) std::swap(t, u);
+    if (P.shared_vertices(t, u) >= 2 || !P.overlap(t, u)) return false;
+    return P.spheres_meet(t, u) && triangles_cross(x, s, t, u);
+  };
+  auto cluster_tris = [&](uint32_t cl, auto&& f) {
+    for (uint32_t k = c.tri_ptr[cl]; k < c.tri_ptr[cl + 1]; ++k)
+      if (f(c.cl_tris[k])) return true;
+    return false;
+  };
+  // Triangle t against the triangles of cluster d, when t's box meets d's.
+  auto against = [&](uint32_t t, uint32_t d) {
+    const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t), *bd = c.box + 6 * size_t(d);
+    if (bd[0] > ht[0] || lt[0] > bd[3] || bd[1] > ht[1] || lt[1] > bd[4] || bd[2] > ht[2] || lt[2] > bd[5])
+      return false;
+    return cluster_tris(d, [&](uint32_t u) { return decide(t, u); });
+  };
+  for (uint32_t i = 0; i < c.nfailed; ++i) {
+    const uint32_t cl = c.failed[i];
+    const uint32_t* w = c.nb + size_t(PatchCertificate::kMaxNeighbours) * cl;
+    const bool hit = cluster_tris(cl, [&](uint32_t t) {
+      for (uint32_t k = 0; k < c.nb_cnt[cl]; ++k)
+        if (against(t, w[k])) return true;
+      return false;
+    });
+    if (hit) return 1;
+  }
+  const bool far_hit = c.for_each_far_pair(
+      [&](uint32_t a, uint32_t b) { return cluster_tris(a, [&](uint32_t t) { return against(t, b); }); });
+  return far_hit ? 1 : 0;
+}
+
 // The whole check from scratch; with record, also keeps the crossing pairs
 // (mark must then be set).
 uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark, bool record,
@@ -410,6 +457,13 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
   for (uint32_t q = 0; q < 3 * nt; ++q) {
     s.lo[q] -= s.eps;
     s.hi[q] += s.eps;
+  }
+  if (!mark && s.use_certificate) {
+    const int r = certified_check(m, x, s);
+    if (r >= 0) {
+      ++s.certified_calls;
+      return uint32_t(r);
+    }
   }
   layout_grid(m, s, emean, rmax);
   s.npairs = 0;

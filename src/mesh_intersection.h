@@ -10,6 +10,7 @@
 
 #include "arena.h"
 #include "cubesphere.h"
+#include "patch_certificate.h"
 #include "spatial_grid.h"
 
 namespace ffseg {
@@ -51,6 +52,12 @@ struct TriangleScratch {
   double* face_n_new = nullptr;
   uint8_t* face_alt_old = nullptr;
   uint8_t* face_alt_new = nullptr;
+  // The yes/no query (mark == nullptr) first tries to certify the mesh's
+  // local windows free of crossings (patch_certificate.h); use_certificate =
+  // false always takes the plain path (tests compare the two).
+  PatchCertificate cert;
+  bool use_certificate = true;
+  uint32_t certified_calls = 0;  // yes/no queries the certificate decided
   void carve(Arena& a, const CubeSphere& m);
 };
 

@@ -1,0 +1,112 @@
+// Certified patches for the guard's yes/no self-intersection query (the hot
+// path of a step: is the tried update free of crossings?).
+//
+// The faces are grouped into clusters: blocks of kBlock x kBlock grid corners
+// of a cube face, each face going to the block of the grid corner it
+// surrounds (corners on cube edges to the face of the lowest axis). Blocks of
+// corners, not of first vertices, keep every window's boundary straight
+// (unfolded across cube edges), so that it projects star-shaped; by first
+// vertex the boundaries were staircases and more than an eighth of a smooth
+// sphere's windows (n = 33) failed the star test. The window of a cluster C
+// is the union of the clusters owning a face that shares a vertex with a
+// face of C, fixed per mesh; where the window is a topological disk (one
+// boundary loop, Euler characteristic 1: checked at build) its boundary loop
+// is stored.
+//
+// Certificate (why a window that passes has no crossing pair). Project the
+// window along a direction w (the mean normal): p -> (p.u, p.v) with
+// w = u x v. If every triangle of the window projects with positive
+// orientation (n_t . w > 0) and the projected boundary loop is a simple
+// closed curve, then every point of the plane off the projected edges has as
+// many preimages as the loop's winding number around it (the degree of the
+// piecewise linear map, every triangle counting +1), so 1 or 0: no two
+// triangles' projections overlap in an open set. A crossing as
+// mark_intersections() defines it (an open edge of one triangle through the
+// interior of another that shares no edge with it) would make the two
+// projections overlap near the crossing point, so the window has none. The
+// loop is shown simple by being strictly star-shaped around the mean of its
+// projected vertices: every edge turns counter-clockwise around it, by more
+// than a rounding margin, and the loop winds once. Both tests keep margins
+// far above the rounding of the computed projection (see the .cpp).
+//
+// Coverage: a pair of triangles of clusters C and C' is inside C's window
+// when C' is one of C's window clusters (its neighbours); every other pair of
+// clusters is reported by for_each_far_pair() when their bounding boxes
+// overlap, for the caller's exact test. Windows that do not pass are listed
+// (failed) for the caller to test their cluster's triangles against the whole
+// window exactly. All memory comes from the arena.
+#pragma once
+#include <cstdint>
+
+#include "arena.h"
+#include "cubesphere.h"
+
+namespace ffseg {
+
+struct PatchCertificate {
+  static constexpr uint32_t kBlock = 4;
+  static constexpr uint32_t kMaxNeighbours = 24;  // window clusters per cluster, C included
+
+  uint32_t ncl = 0;
+  uint32_t* face_cluster = nullptr;  // per face
+  uint32_t* cl_ptr = nullptr;        // ncl + 1: faces of cluster c are cl_faces[cl_ptr[c] .. cl_ptr[c+1])
+  uint32_t* cl_faces = nullptr;      // nfaces
+  uint32_t* tri_ptr = nullptr;       // ncl + 1: triangles of cluster c are cl_tris[tri_ptr[c] .. tri_ptr[c+1])
+  uint32_t* cl_tris = nullptr;       // triangle count, in cluster order
+  double* tn = nullptr;              // per call, cluster order: 3 per triangle, its normal
+  double* tmargin = nullptr;         // per call, cluster order: the orientation margin of the triangle
+  uint32_t* nb_cnt = nullptr;        // per cluster: window clusters (C first), at most kMaxNeighbours
+  uint32_t* nb = nullptr;            // kMaxNeighbours per cluster
+  uint32_t* loop_ptr = nullptr;      // ncl + 1; an empty loop: the window cannot be certified
+  uint32_t* loop = nullptr;          // boundary loops, counter-clockwise seen from outside
+  uint32_t loop_cap = 0;
+  // Per call.
+  double* box = nullptr;     // 6 per cluster: lo xyz, hi xyz
+  double* nsum = nullptr;    // 3 per cluster: sum of its triangles' normals
+  uint32_t* order = nullptr; // clusters by box lo x (kept between calls: nearly sorted)
+  uint32_t* failed = nullptr;
+  uint32_t nfailed = 0;
+  // Build scratch.
+  uint8_t* face_mark = nullptr;
+  uint8_t* vert_mark = nullptr;
+  uint32_t* next = nullptr;
+  bool built = false;
+
+  void carve(Arena& a, const CubeSphere& m);
+  void build(const CubeSphere& m);
+
+  // normals: 3 per triangle ((p1 - p0) x (p2 - p0) of the faces' splits),
+  // lo/hi: 3 per triangle (exact boxes), triangles in triangulate()'s order. Computes the cluster boxes and tests
+  // every window; failed/nfailed list the clusters whose window did not pass.
+  // Returns false (nothing decided) when more than max_failed windows fail.
+  bool certify(const CubeSphere& m, const double* x, const double* normals,
+               const double* lo, const double* hi, uint32_t max_failed);
+
+  bool neighbours(uint32_t c, uint32_t d) const {
+    const uint32_t* p = nb + size_t(kMaxNeighbours) * c;
+    for (uint32_t i = 0; i < nb_cnt[c]; ++i)
+      if (p[i] == d) return true;
+    return false;
+  }
+
+  // Every pair of clusters (c, d), neither in the other's window, whose boxes
+  // overlap; f(c, d) returns true to stop (then so does this, with true).
+  template <class F>
+  bool for_each_far_pair(F&& f) {
+    for (uint32_t i = 0; i < ncl; ++i) {
+      const uint32_t c = order[i];
+      const double* bc = box + 6 * size_t(c);
+      for (uint32_t j = i + 1; j < ncl; ++j) {
+        const uint32_t d = order[j];
+        const double* bd = box + 6 * size_t(d);
+        if (bd[0] > bc[3]) break;
+        if (bd[1] > bc[4] || bc[1] > bd[4] || bd[2] > bc[5] || bc[2] > bd[5]) continue;
+        if (neighbours(c, d) || neighbours(d, c)) continue;
+        if (f(c, d)) return true;
+      }
+    }
+    return false;
+  }
+};
+
+}  // namespace ffseg
