@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "tangent_frame.h"
+
 namespace ffseg {
 namespace {
 
@@ -141,20 +143,8 @@ void CubeSphere::build() {
         // Tangent frame around the outward direction C.
         const double cl = std::sqrt(double(x) * x + double(y) * y + double(z) * z);
         const double nc[3] = {x / cl, y / cl, z / cl};
-        double e1[3] = {0, 0, 0};
-        {  // any vector not parallel to nc
-          int mi = 0;
-          for (int d = 1; d < 3; ++d)
-            if (std::fabs(nc[d]) < std::fabs(nc[mi])) mi = d;
-          double h[3] = {0, 0, 0};
-          h[mi] = 1;
-          const double dp = h[0] * nc[0] + h[1] * nc[1] + h[2] * nc[2];
-          for (int d = 0; d < 3; ++d) e1[d] = h[d] - dp * nc[d];
-          const double el = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-          for (int d = 0; d < 3; ++d) e1[d] /= el;
-        }
-        const double e2[3] = {nc[1] * e1[2] - nc[2] * e1[1], nc[2] * e1[0] - nc[0] * e1[2],
-                              nc[0] * e1[1] - nc[1] * e1[0]};
+        double e1[3], e2[3];
+        tangent_frame(nc, e1, e2);
         for (int k = 0; k < 3; ++k) {
           if (iabs(C[k]) != N) continue;
           const int t1 = (k + 1) % 3, t2 = (k + 2) % 3;

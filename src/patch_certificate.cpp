@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "tangent_frame.h"
+
 namespace ffseg {
 
 namespace {
@@ -263,19 +265,7 @@ bool PatchCertificate::certify(const CubeSphere& m, const double* x, const doubl
       ok = dl > 0 && std::isfinite(dl);
       if (ok) {
         for (int a = 0; a < 3; ++a) d[a] /= dl;
-        // u: the coordinate axis least aligned with d, made orthogonal to it.
-        int mi = 0;
-        for (int a = 1; a < 3; ++a)
-          if (std::fabs(d[a]) < std::fabs(d[mi])) mi = a;
-        double h[3] = {0, 0, 0};
-        h[mi] = 1;
-        const double hd = h[0] * d[0] + h[1] * d[1] + h[2] * d[2];
-        for (int a = 0; a < 3; ++a) u[a] = h[a] - hd * d[a];
-        const double ul = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-        for (int a = 0; a < 3; ++a) u[a] /= ul;
-        v[0] = d[1] * u[2] - d[2] * u[1];
-        v[1] = d[2] * u[0] - d[0] * u[2];
-        v[2] = d[0] * u[1] - d[1] * u[0];
+        tangent_frame(d, u, v);
         // The projection (p.u, p.v) runs along w = u x v (as computed).
         w[0] = u[1] * v[2] - u[2] * v[1];
         w[1] = u[2] * v[0] - u[0] * v[2];
