@@ -45,6 +45,8 @@ struct CubeSphere {
   void build();
 
   uint32_t triangle_count() const { return 2 * (nfaces - 8) + 8; }
+  // First triangle of face f in triangulate()'s order (quads first, two each).
+  uint32_t first_triangle(uint32_t f) const { return f < nfaces - 8 ? 2 * f : nfaces - 8 + f; }
 
   // Vertex index of the cell with integer cube coordinates P (see .cpp).
   uint32_t index_of(const int32_t P[3]) const;

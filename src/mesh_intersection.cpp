@@ -117,12 +117,6 @@ bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint
 
 namespace {
 
-// First triangle of face f in triangulate()'s order (quads first, two each).
-inline uint32_t first_triangle(const CubeSphere& m, uint32_t f) {
-  const uint32_t nq = m.nfaces - 8;
-  return f < nq ? 2 * f : nq + f;
-}
-
 // Centroid, bounding box (widened by eps) and bounding radius of triangle t.
 void prepare(const double* x, TriangleScratch& s, uint32_t t, double eps) {
   const uint32_t* id = s.tris + 3 * size_t(t);
@@ -223,7 +217,7 @@ struct Pairs {
       for (int i = 0; i < 4; ++i) {
         const uint32_t f = m.vfaces[4 * size_t(v) + i];
         if (f == kNone) continue;
-        const uint32_t t0 = first_triangle(m, f);
+        const uint32_t t0 = m.first_triangle(f);
         const int c = m.faces[4 * size_t(f) + 3] == kNone ? 1 : 2;
         for (int j = 0; j < c; ++j) {
           const uint32_t* q = s.tris + 3 * size_t(t0 + j);
@@ -506,7 +500,7 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
     bool any = false;
     for (int i = 0; i < k && !any; ++i) any = moved[q[i]] != 0;
     if (!any) continue;
-    const uint32_t t0 = first_triangle(m, f);
+    const uint32_t t0 = m.first_triangle(f);
     const int c = alt ? face_split(m, f, alt[f] != 0, s.tris + 3 * size_t(t0))
                       : face_triangles(m, f, s.tris + 3 * size_t(t0), x);
     for (int i = 0; i < c; ++i) {

@@ -45,11 +45,6 @@ inline uint32_t face_raw_cluster(const CubeSphere& m, uint32_t f) {
 
 inline int face_size(const CubeSphere& m, uint32_t f) { return m.faces[4 * size_t(f) + 3] == kNone ? 3 : 4; }
 
-// First triangle of face f in triangulate()'s order (quads first, two each).
-inline uint32_t first_tri(const CubeSphere& m, uint32_t f) {
-  const uint32_t nq = m.nfaces - 8;
-  return f < nq ? 2 * f : nq + f;
-}
 
 }  // namespace
 
@@ -101,7 +96,7 @@ void PatchCertificate::build(const CubeSphere& m) {
     tri_ptr[c] = nt;
     for (uint32_t i = cl_ptr[c]; i < cl_ptr[c + 1]; ++i) {
       const uint32_t f = cl_faces[i];
-      const uint32_t t0 = first_tri(m, f);
+      const uint32_t t0 = m.first_triangle(f);
       for (uint32_t t = t0; t < t0 + (face_size(m, f) == 3 ? 1u : 2u); ++t) cl_tris[nt++] = t;
     }
   }
@@ -215,7 +210,7 @@ bool PatchCertificate::certify(const CubeSphere& m, const double* x, const doubl
     s[0] = s[1] = s[2] = 0;
     for (uint32_t i = cl_ptr[c]; i < cl_ptr[c + 1]; ++i) {
       const uint32_t f = cl_faces[i];
-      const uint32_t t0 = first_tri(m, f);
+      const uint32_t t0 = m.first_triangle(f);
       const int nt = face_size(m, f) == 3 ? 1 : 2;
       for (uint32_t t = t0; t < t0 + uint32_t(nt); ++t)
         for (int a = 0; a < 3; ++a) {
