@@ -45,6 +45,8 @@ struct CubeSphere {
   void build();
 
   uint32_t triangle_count() const { return 2 * (nfaces - 8) + 8; }
+  // Corners of face f: 4 for the quads, 3 for the eight corner triangles.
+  int face_size(uint32_t f) const { return faces[4 * size_t(f) + 3] == kNone ? 3 : 4; }
   // First triangle of face f in triangulate()'s order (quads first, two each).
   uint32_t first_triangle(uint32_t f) const { return f < nfaces - 8 ? 2 * f : nfaces - 8 + f; }
 

@@ -20,7 +20,7 @@ inline uint32_t blocks_per_side(uint32_t n) { return n / PatchCertificate::kBloc
 // straight and its projection star-shaped.
 inline uint32_t face_raw_cluster(const CubeSphere& m, uint32_t f) {
   const int32_t N = int32_t(m.n);
-  const int k = m.faces[4 * size_t(f) + 3] == kNone ? 3 : 4;
+  const int k = m.face_size(f);
   int32_t sum[3] = {0, 0, 0};
   for (int e = 0; e < k; ++e) {
     int32_t P[3];
@@ -43,7 +43,6 @@ inline uint32_t face_raw_cluster(const CubeSphere& m, uint32_t f) {
   return (F * side + c1 / PatchCertificate::kBlock) * side + c2 / PatchCertificate::kBlock;
 }
 
-inline int face_size(const CubeSphere& m, uint32_t f) { return m.faces[4 * size_t(f) + 3] == kNone ? 3 : 4; }
 
 
 }  // namespace
@@ -97,7 +96,7 @@ void PatchCertificate::build(const CubeSphere& m) {
     for (uint32_t i = cl_ptr[c]; i < cl_ptr[c + 1]; ++i) {
       const uint32_t f = cl_faces[i];
       const uint32_t t0 = m.first_triangle(f);
-      for (uint32_t t = t0; t < t0 + (face_size(m, f) == 3 ? 1u : 2u); ++t) cl_tris[nt++] = t;
+      for (uint32_t t = t0; t < t0 + (m.face_size(f) == 3 ? 1u : 2u); ++t) cl_tris[nt++] = t;
     }
   }
   tri_ptr[ncl] = nt;
@@ -110,7 +109,7 @@ void PatchCertificate::build(const CubeSphere& m) {
     for (uint32_t i = cl_ptr[c]; i < cl_ptr[c + 1]; ++i) {
       const uint32_t f = cl_faces[i];
       const uint32_t* q = m.faces + 4 * size_t(f);
-      for (int j = 0; j < face_size(m, f); ++j)
+      for (int j = 0; j < m.face_size(f); ++j)
         for (int r = 0; r < 4; ++r) {
           const uint32_t g = m.vfaces[4 * size_t(q[j]) + r];
           if (g == kNone) continue;
@@ -146,7 +145,7 @@ void PatchCertificate::build(const CubeSphere& m) {
       for (uint32_t j = cl_ptr[p[i]]; j < cl_ptr[p[i] + 1]; ++j) {
         const uint32_t f = cl_faces[j];
         const uint32_t* q = m.faces + 4 * size_t(f);
-        const int k = face_size(m, f);
+        const int k = m.face_size(f);
         ++nf;
         nedge2 += uint32_t(k);
         for (int e = 0; e < k; ++e) {
@@ -186,7 +185,7 @@ void PatchCertificate::build(const CubeSphere& m) {
         const uint32_t f = cl_faces[j];
         face_mark[f] = 0;
         const uint32_t* q = m.faces + 4 * size_t(f);
-        for (int e = 0; e < face_size(m, f); ++e) {
+        for (int e = 0; e < m.face_size(f); ++e) {
           vert_mark[q[e]] = 0;
           next[q[e]] = kNone;
         }
@@ -197,27 +196,34 @@ void PatchCertificate::build(const CubeSphere& m) {
   built = true;
 }
 
-bool PatchCertificate::certify(const CubeSphere& m, const double* x, const double* normals,
+bool PatchCertificate::certify(const double* x, const double* normals,
                                const double* lo, const double* hi, uint32_t max_failed) {
   nfailed = 0;
   if (!built) return false;
-  // Cluster boxes and normal sums.
+  // Cluster boxes and normal sums; the triangles' normals and orientation
+  // margins packed in cluster order. The rounding of n_t is at most about
+  // 1e-15 e^2, e the extent of the triangle's box: slivers need the second
+  // term of the margin.
   for (uint32_t c = 0; c < ncl; ++c) {
     double* b = box + 6 * size_t(c);
     double* s = nsum + 3 * size_t(c);
     b[0] = b[1] = b[2] = HUGE_VAL;
     b[3] = b[4] = b[5] = -HUGE_VAL;
     s[0] = s[1] = s[2] = 0;
-    for (uint32_t i = cl_ptr[c]; i < cl_ptr[c + 1]; ++i) {
-      const uint32_t f = cl_faces[i];
-      const uint32_t t0 = m.first_triangle(f);
-      const int nt = face_size(m, f) == 3 ? 1 : 2;
-      for (uint32_t t = t0; t < t0 + uint32_t(nt); ++t)
-        for (int a = 0; a < 3; ++a) {
-          b[a] = lo[3 * size_t(t) + a] < b[a] ? lo[3 * size_t(t) + a] : b[a];
-          b[3 + a] = hi[3 * size_t(t) + a] > b[3 + a] ? hi[3 * size_t(t) + a] : b[3 + a];
-          s[a] += normals[3 * size_t(t) + a];
-        }
+    for (uint32_t k = tri_ptr[c]; k < tri_ptr[c + 1]; ++k) {
+      const uint32_t t = cl_tris[k];
+      const double* n = normals + 3 * size_t(t);
+      const double* tl = lo + 3 * size_t(t);
+      const double* th = hi + 3 * size_t(t);
+      double e = 0;
+      for (int a = 0; a < 3; ++a) {
+        b[a] = tl[a] < b[a] ? tl[a] : b[a];
+        b[3 + a] = th[a] > b[3 + a] ? th[a] : b[3 + a];
+        s[a] += n[a];
+        e = th[a] - tl[a] > e ? th[a] - tl[a] : e;
+        tn[3 * size_t(k) + a] = n[a];
+      }
+      tmargin[k] = 1e-6 * (std::fabs(n[0]) + std::fabs(n[1]) + std::fabs(n[2])) + 1e-12 * e * e;
     }
     if (!(std::isfinite(b[0]) && std::isfinite(b[1]) && std::isfinite(b[2]) && std::isfinite(b[3]) &&
           std::isfinite(b[4]) && std::isfinite(b[5])))
@@ -233,19 +239,6 @@ bool PatchCertificate::certify(const CubeSphere& m, const double* x, const doubl
       --j;
     }
     order[j] = c;
-  }
-  // Normals and orientation margins in cluster order. The rounding of n_t
-  // is at most about 1e-15 e^2, e the extent of the triangle's box: slivers
-  // need the second term.
-  for (uint32_t k = 0; k < tri_ptr[ncl]; ++k) {
-    const uint32_t t = cl_tris[k];
-    const double* n = normals + 3 * size_t(t);
-    const double* tl = lo + 3 * size_t(t);
-    const double* th = hi + 3 * size_t(t);
-    double e = 0;
-    for (int a = 0; a < 3; ++a) e = th[a] - tl[a] > e ? th[a] - tl[a] : e;
-    for (int a = 0; a < 3; ++a) tn[3 * size_t(k) + a] = n[a];
-    tmargin[k] = 1e-6 * (std::fabs(n[0]) + std::fabs(n[1]) + std::fabs(n[2])) + 1e-12 * e * e;
   }
   // Windows.
   for (uint32_t c = 0; c < ncl; ++c) {

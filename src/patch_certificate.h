@@ -79,7 +79,7 @@ struct PatchCertificate {
   // lo/hi: 3 per triangle (exact boxes), triangles in triangulate()'s order. Computes the cluster boxes and tests
   // every window; failed/nfailed list the clusters whose window did not pass.
   // Returns false (nothing decided) when more than max_failed windows fail.
-  bool certify(const CubeSphere& m, const double* x, const double* normals,
+  bool certify(const double* x, const double* normals,
                const double* lo, const double* hi, uint32_t max_failed);
 
   bool neighbours(uint32_t c, uint32_t d) const {
