@@ -99,12 +99,14 @@ int main(int argc, char** argv) {
 #ifdef FFSEG_HAVE_LAPACK
       " dpbtrf/ffseg factor |"
 #endif
-      " max rel diff | fused factor+forward ms | backward ms | fused / (factor + solve) | fused bit-identical |\n");
+      " max rel diff | fused factor+forward ms | backward ms | fused / (factor + solve) | fused bit-identical |"
+      " assign ms | factor+forward after assign ms | assign+factor+forward fused ms | fused / (assign + factor+forward) |"
+      " assign fused bit-identical |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|"
 #ifdef FFSEG_HAVE_LAPACK
               "---|---|---|"
 #endif
-              "---|---|---|---|---|---|\n");
+              "---|---|---|---|---|---|---|---|---|---|---|\n");
 
   for (uint32_t n : sizes) {
     // Mesh.
@@ -191,6 +193,43 @@ int main(int argc, char** argv) {
       const int rb = chol.solve_forwarded(x.data(), nv);
       t_fback.push_back(ms_since(t0));
       fused_same = fused_same && rc == 0 && rb == 0 && x == x_ff;
+    }
+
+    // The step's path since the storage is written by the factorisation:
+    // the matrix as sorted storage offsets and values (summed in add()'s
+    // order), stored either by assign_sorted() ahead of factor_forward() or
+    // group by group inside assign_factor_forward(); alternated, same inputs.
+    std::vector<double> dense(chol.stored_entries(), 0.0);
+    std::vector<uint8_t> used(chol.stored_entries(), 0);
+    for (const Entry& e : trip) {
+      const int64_t o = chol.offset_of(e.i, e.j);
+      if (o < 0) return 1;
+      dense[std::size_t(o)] += e.v;
+      used[std::size_t(o)] = 1;
+    }
+    std::vector<uint64_t> offs;
+    std::vector<double> vals;
+    for (std::size_t o = 0; o < dense.size(); ++o)
+      if (used[o]) {
+        offs.push_back(o);
+        vals.push_back(dense[o]);
+      }
+    std::vector<double> t_assign, t_after, t_afused;
+    bool afused_same = true;
+    for (int r = 0; r < reps; ++r) {
+      std::vector<double> x = rhs, y = rhs;
+      auto t0 = Clock::now();
+      chol.assign_sorted(offs.data(), vals.data(), offs.size());
+      t_assign.push_back(ms_since(t0));
+      t0 = Clock::now();
+      int rc = chol.factor_forward(x.data(), nv);
+      t_after.push_back(ms_since(t0));
+      rc |= chol.solve_forwarded(x.data(), nv);
+      t0 = Clock::now();
+      rc |= chol.assign_factor_forward(offs.data(), vals.data(), offs.size(), y.data(), nv);
+      t_afused.push_back(ms_since(t0));
+      rc |= chol.solve_forwarded(y.data(), nv);
+      afused_same = afused_same && rc == 0 && x == x_ff && y == x_ff;
     }
 
     // Eigen.
@@ -283,7 +322,9 @@ int main(int argc, char** argv) {
     std::printf(" %.2fx |", lf / f);
 #endif
     const double ff = median(t_ffac), fb = median(t_fback);
-    std::printf(" %.1e | %.2f | %.2f | %.2fx | %s |\n", maxrel, ff, fb, (ff + fb) / (f + s), fused_same ? "yes" : "NO");
+    std::printf(" %.1e | %.2f | %.2f | %.2fx | %s |", maxrel, ff, fb, (ff + fb) / (f + s), fused_same ? "yes" : "NO");
+    const double ta = median(t_assign), tf = median(t_after), taf = median(t_afused);
+    std::printf(" %.2f | %.2f | %.2f | %.2fx | %s |\n", ta, tf, taf, taf / (ta + tf), afused_same ? "yes" : "NO");
     std::fflush(stdout);
   }
   return 0;

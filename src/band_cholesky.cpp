@@ -401,16 +401,48 @@ inline void backward_all(const View& v, double* const y[3]) {
   }
 }
 
+}  // namespace
+
+// The matrix as assign_sorted() takes it, for factor_impl() to store group by
+// group just before it factors the group.
+struct EnvelopeAssign {
+  const uint64_t* off;
+  const double* v;
+  std::size_t count;
+  uint32_t n, npad;  // rows n..npad-1 are padding: identity
+};
+
+namespace {
+
+using Assign = EnvelopeAssign;
+
+// Group g's block of the storage: zeros, the padding rows' identity, then
+// the entries a.off[*k..] that fall in it (*k advances past them).
+inline void assign_group(const View& v, const Assign& a, uint32_t g, std::size_t* k) {
+  const uint32_t s = v.gstart[g];
+  const std::size_t w = group_width(g, s);
+  const uint64_t b = v.goff[g], e = b + 4 * w;
+  std::memset(v.val + b, 0, (e - b) * sizeof(double));
+  for (uint32_t i = 4 * g; i < 4 * g + 4; ++i)
+    if (i >= a.n && i < a.npad) v.val[b + (i & 3u) * w + (i - s)] = 1.0;
+  std::size_t q = *k;
+  for (; q < a.count && a.off[q] < e; ++q) v.val[a.off[q]] = a.v[q];
+  *k = q;
+}
+
 // rhs: three permuted right-hand sides to forward-substitute group by group as
-// the factor's rows are completed (still in cache), or nullptr.
+// the factor's rows are completed (still in cache), or nullptr. as: the
+// matrix to store group by group first (the storage as it is: nullptr).
 template <class K>
-inline int factor_impl(const View& v, uint32_t* bad_row, double* const* rhs) {
+inline int factor_impl(const View& v, uint32_t* bad_row, double* const* rhs, const Assign* as) {
   double acc[16];
+  std::size_t next = 0;
   for (uint32_t g = 0; g < v.ngroups; ++g) {
     const uint32_t r = 4 * g;
     const uint32_t sr = v.gstart[g];
     const std::size_t wr = group_width(g, sr);
     double* R = v.val + v.goff[g];  // row i at R + i wr, column k at [k - sr]
+    if (as) assign_group(v, *as, g, &next);
     for (uint32_t c = sr; c < r; c += 4) {
       const uint32_t gj = c >> 2;
       const uint32_t sj = v.gstart[gj];
@@ -467,21 +499,21 @@ inline void solve_impl(const View& v, double* y0, double* y1, double* y2, bool f
   backward_all<K>(v, y);
 }
 
-__attribute__((flatten)) int factor_portable(const View& v, uint32_t* bad, double* const* y) {
-  return factor_impl<KPortable>(v, bad, y);
+__attribute__((flatten)) int factor_portable(const View& v, uint32_t* bad, double* const* y, const Assign* as) {
+  return factor_impl<KPortable>(v, bad, y, as);
 }
 __attribute__((flatten)) void solve_portable(const View& v, double* a, double* b, double* c, bool fwd) {
   solve_impl<KPortable>(v, a, b, c, fwd);
 }
 #if FFSEG_BC_X86
-FFSEG_AVX2 __attribute__((flatten)) int factor_avx2(const View& v, uint32_t* bad, double* const* y) {
-  return factor_impl<KAvx2>(v, bad, y);
+FFSEG_AVX2 __attribute__((flatten)) int factor_avx2(const View& v, uint32_t* bad, double* const* y, const Assign* as) {
+  return factor_impl<KAvx2>(v, bad, y, as);
 }
 FFSEG_AVX2 __attribute__((flatten)) void solve_avx2(const View& v, double* a, double* b, double* c, bool fwd) {
   solve_impl<KAvx2>(v, a, b, c, fwd);
 }
-FFSEG_AVX512 __attribute__((flatten)) int factor_avx512(const View& v, uint32_t* bad, double* const* y) {
-  return factor_impl<KAvx512>(v, bad, y);
+FFSEG_AVX512 __attribute__((flatten)) int factor_avx512(const View& v, uint32_t* bad, double* const* y, const Assign* as) {
+  return factor_impl<KAvx512>(v, bad, y, as);
 }
 FFSEG_AVX512 __attribute__((flatten)) void solve_avx512(const View& v, double* a, double* b,
                                                        double* c, bool fwd) {
@@ -654,15 +686,10 @@ void EnvelopeCholesky::assign_sorted(const uint64_t* off, const double* v, std::
   if (!ready_) return;
   // Group by group: zero its block, the padding rows' identity, then the
   // values that fall in it (the block is still in cache).
+  const View view{ngroups_, gstart_, goff_, val_, invdiag_};
+  const Assign as{off, v, count, n_, npad_};
   std::size_t k = 0;
-  for (uint32_t g = 0; g < ngroups_; ++g) {
-    const uint32_t s = gstart_[g];
-    const uint64_t b = goff_[g], e = b + 4 * group_width(g, s);
-    std::memset(val_ + b, 0, (e - b) * sizeof(double));
-    for (uint32_t i = 4 * g; i < 4 * g + 4; ++i)
-      if (i >= n_ && i < npad_) val_[b + (i & 3u) * group_width(g, s) + (i - s)] = 1.0;
-    for (; k < count && off[k] < e; ++k) val_[off[k]] = v[k];
-  }
+  for (uint32_t g = 0; g < ngroups_; ++g) assign_group(view, as, g, &k);
 }
 
 double EnvelopeCholesky::get(uint32_t i, uint32_t j) const {
@@ -671,19 +698,35 @@ double EnvelopeCholesky::get(uint32_t i, uint32_t j) const {
   return p ? *p : 0.0;
 }
 
-int EnvelopeCholesky::factor() { return factor_with(nullptr); }
+int EnvelopeCholesky::factor() { return factor_with(nullptr, nullptr); }
 
 int EnvelopeCholesky::factor_forward(const double* b, std::size_t ld) {
   forwarded_ = false;
   if (!ready_ || b == nullptr) return kNotReady;
   double* y[3] = {work_, work_ + npad_, work_ + 2 * std::size_t(npad_)};
   load_permuted(b, 3, ld, y);
-  const int rc = factor_with(y);
+  const int rc = factor_with(y, nullptr);
   forwarded_ = rc == kOk;
   return rc;
 }
 
-int EnvelopeCholesky::factor_with(double* const* y) {
+int EnvelopeCholesky::assign_factor_forward(const uint64_t* off, const double* v, std::size_t count,
+                                            const double* b, std::size_t ld) {
+  factored_ = forwarded_ = false;
+  bad_entry_ = false;
+  failed_row_ = -1;
+  if (!ready_ || b == nullptr || (count && (off == nullptr || v == nullptr))) return kNotReady;
+  // Offsets past the storage would never be stored by the group walk.
+  if (count && off[count - 1] >= stored_) return kOutOfPattern;
+  double* y[3] = {work_, work_ + npad_, work_ + 2 * std::size_t(npad_)};
+  load_permuted(b, 3, ld, y);
+  const Assign as{off, v, count, n_, npad_};
+  const int rc = factor_with(y, &as);
+  forwarded_ = rc == kOk;
+  return rc;
+}
+
+int EnvelopeCholesky::factor_with(double* const* y, const Assign* as) {
   factored_ = forwarded_ = false;
   failed_row_ = -1;
   if (!ready_) return kNotReady;
@@ -694,14 +737,14 @@ int EnvelopeCholesky::factor_with(double* const* y) {
   switch (active_kernel()) {
 #if FFSEG_BC_X86
     case Kernel::avx512:
-      rc = factor_avx512(v, &bad, y);
+      rc = factor_avx512(v, &bad, y, as);
       break;
     case Kernel::avx2:
-      rc = factor_avx2(v, &bad, y);
+      rc = factor_avx2(v, &bad, y, as);
       break;
 #endif
     default:
-      rc = factor_portable(v, &bad, y);
+      rc = factor_portable(v, &bad, y, as);
       break;
   }
   if (rc != kOk) {

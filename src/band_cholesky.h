@@ -24,6 +24,8 @@
 
 namespace ffseg {
 
+struct EnvelopeAssign;  // band_cholesky.cpp
+
 // ---- 2-ring graph of a mesh in which every vertex has 4 neighbours ----------
 
 // Capacity of the cols array of a 2-ring graph of nv vertices: 4 neighbours +
@@ -134,6 +136,14 @@ class EnvelopeCholesky {
   // forward result: solve_forwarded() then returns kNotReady.
   int factor_forward(const double* b, std::size_t ld);
   int solve_forwarded(double* x, std::size_t ld);
+  // assign_sorted(off, v, count) fused into factor_forward(b, ld): each group
+  // of rows is stored (zeros, then its entries) just before it is factored,
+  // so the storage is written once, in cache, instead of in a pass of its own
+  // ahead of the factorisation. Bit for bit the results of the two calls;
+  // solve_forwarded() follows. After a failure the storage is unusable until
+  // the next assembly, as after factor().
+  int assign_factor_forward(const uint64_t* off, const double* v, std::size_t count, const double* b,
+                            std::size_t ld);
 
   uint32_t size() const { return n_; }
   uint32_t bandwidth() const { return bandwidth_; }
@@ -154,7 +164,7 @@ class EnvelopeCholesky {
   static const char* kernel_name(Kernel k);
 
  private:
-  int factor_with(double* const* y);
+  int factor_with(double* const* y, const EnvelopeAssign* as);
   // Permuted copies of cnt columns b + q * ld into y[0..2] (zero columns
   // and padding beyond).
   void load_permuted(const double* b, int cnt, std::size_t ld, double* const* y) const;

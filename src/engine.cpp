@@ -517,7 +517,13 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
     }
     s.weight[v] = w;
   }
-  assemble_laplacian(mesh_, params_.lambda_laplacian, params_.lambda_uniform, s.weight, s.solver, &s.program);
+  // With the storage program (always, on the cube-sphere) only the values
+  // are computed here: the factorisation stores them group by group.
+  const bool fused = s.program.ok;
+  if (fused)
+    laplacian_values(params_.lambda_laplacian, params_.lambda_uniform, s.weight, s.program);
+  else
+    assemble_laplacian(mesh_, params_.lambda_laplacian, params_.lambda_uniform, s.weight, s.solver, nullptr);
   // The anchor pulls towards u_i, the positional term towards p_i: one target
   // per vertex, the weighted mean of the two.
   for (uint32_t v = 0; v < nv; ++v) {
@@ -530,9 +536,11 @@ Err Engine::step_object(uint32_t oi, StepReport* r, uint32_t slot) {
   }
   laplacian_rhs(mesh_, params_.lambda_laplacian, params_.lambda_uniform, x, s.target, s.weight, s.rhs, s.tmp);
   lap(kStageAssembly);
-  // The factorisation forward-substitutes the three right-hand sides as it
-  // goes (each row group while in cache); the solve stage is the backward half.
-  const int fr = s.solver.factor_forward(s.rhs, nv);
+  // The factorisation stores each row group's matrix entries, factors the
+  // group and forward-substitutes the three right-hand sides in it while it
+  // is in cache; the solve stage is the backward half.
+  const int fr = fused ? s.solver.assign_factor_forward(s.program.off, s.program.val, s.program.count, s.rhs, nv)
+                       : s.solver.factor_forward(s.rhs, nv);
   lap(kStageFactor);
   if (fr != EnvelopeCholesky::kOk) {
     std::snprintf(msg_, kMsgLen, "step: factorisation failed (code %d, row %lld); mesh unchanged", fr,

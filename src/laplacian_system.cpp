@@ -125,27 +125,31 @@ void LaplacianProgram::build(const CubeSphere& m, const EnvelopeCholesky& S) {
   ok = true;
 }
 
+void laplacian_values(double lambda_l, double lambda_u, const double* w, LaplacianProgram& prog) {
+  // The same additions per entry, in the same order, from +0.
+  const double c[2] = {1.0, -0.25};
+  const double k_own_diag = lambda_l * c[0] * c[0], k_own = lambda_l * c[0] * c[1], k_other = lambda_l * c[1] * c[1];
+  const bool uniform = lambda_u > 0;
+  for (uint32_t q = 0; q < prog.count; ++q) {
+    const uint16_t code = prog.code[q];
+    const bool diag = code & kDiag;
+    const double own = diag ? k_own_diag : k_own;
+    double v = 0.0;
+    const int nr = code & 7;
+    for (int t = 0; t < nr; ++t) v += (code >> (3 + t)) & 1 ? own : k_other;
+    if (uniform) {
+      const double u = diag ? lambda_u : -lambda_u;
+      for (int t = (code >> 8) & 7; t > 0; --t) v += u;
+    }
+    if (diag) v += w[prog.vert[q]];
+    prog.val[q] = v;
+  }
+}
+
 void assemble_laplacian(const CubeSphere& m, double lambda_l, double lambda_u, const double* w,
                         EnvelopeCholesky& S, LaplacianProgram* prog) {
   if (prog && prog->ok) {
-    // The same additions per entry, in the same order, from +0.
-    const double c[2] = {1.0, -0.25};
-    const double k_own_diag = lambda_l * c[0] * c[0], k_own = lambda_l * c[0] * c[1], k_other = lambda_l * c[1] * c[1];
-    const bool uniform = lambda_u > 0;
-    for (uint32_t q = 0; q < prog->count; ++q) {
-      const uint16_t code = prog->code[q];
-      const bool diag = code & kDiag;
-      const double own = diag ? k_own_diag : k_own;
-      double v = 0.0;
-      const int nr = code & 7;
-      for (int t = 0; t < nr; ++t) v += (code >> (3 + t)) & 1 ? own : k_other;
-      if (uniform) {
-        const double u = diag ? lambda_u : -lambda_u;
-        for (int t = (code >> 8) & 7; t > 0; --t) v += u;
-      }
-      if (diag) v += w[prog->vert[q]];
-      prog->val[q] = v;
-    }
+    laplacian_values(lambda_l, lambda_u, w, *prog);
     S.assign_sorted(prog->off, prog->val, prog->count);
     return;
   }

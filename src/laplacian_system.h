@@ -38,6 +38,10 @@ struct LaplacianProgram {
 void assemble_laplacian(const CubeSphere& m, double lambda_l, double lambda_u, const double* w,
                         EnvelopeCholesky& S, LaplacianProgram* prog = nullptr);
 
+// The values of assemble_laplacian() with prog (built, ok) into prog.val, in
+// storage order, not stored: for EnvelopeCholesky::assign_factor_forward().
+void laplacian_values(double lambda_l, double lambda_u, const double* w, LaplacianProgram& prog);
+
 // Right-hand sides, three columns of nv (rhs[c * nv + v]), for current
 // positions x, targets p (used where w > 0) and weights w.
 void laplacian_rhs(const CubeSphere& m, double lambda_l, double lambda_u, const double* x, const double* p,

@@ -411,6 +411,81 @@ TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit f
   }
 }
 
+TEST_CASE("cholesky: assign_factor_forward equals assign_sorted + factor_forward bit for bit, all kernels") {
+  KernelGuard guard;
+  std::mt19937_64 rng(91);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  for (uint32_t n : {2u, 5u, 13u, 21u}) {
+    Mesh mesh(n);
+    const uint32_t nv = mesh.m.nv;
+    const Graph g = two_ring(mesh.m);
+    std::vector<double> w(nv);
+    for (uint32_t i = 0; i < nv; ++i) w[i] = 0.25 + 3 * U(rng);
+    const std::vector<Entry> t = cube_sphere_system(mesh.m, 1.0, 1.0, 0.25, w);
+    Solver s(g.csr());
+    REQUIRE(s.ok);
+    // The matrix as sorted storage offsets, summed in add()'s order.
+    std::vector<std::pair<uint64_t, double>> acc;
+    for (const Entry& e : t) {
+      const int64_t o = s.chol.offset_of(e.i, e.j);
+      REQUIRE(o >= 0);
+      acc.push_back({uint64_t(o), 0.0});
+    }
+    std::sort(acc.begin(), acc.end());
+    acc.erase(std::unique(acc.begin(), acc.end()), acc.end());
+    std::vector<uint64_t> off;
+    for (const auto& a : acc) off.push_back(a.first);
+    std::vector<double> val(off.size(), 0.0);
+    for (const Entry& e : t) {
+      const uint64_t o = uint64_t(s.chol.offset_of(e.i, e.j));
+      val[std::size_t(std::lower_bound(off.begin(), off.end(), o) - off.begin())] += e.v;
+    }
+    const std::size_t ld = nv + 2;
+    std::vector<double> B(3 * ld);
+    for (double& b : B) b = 200 * U(rng) - 100;
+    for (Kernel k : kernels()) {
+      CAPTURE(n);
+      CAPTURE(EnvelopeCholesky::kernel_name(k));
+      EnvelopeCholesky::set_kernel(k);
+      // Reference: assembled by add(), then the two calls.
+      load(s.chol, t);
+      REQUIRE(s.chol.factor_forward(B.data(), ld) == EnvelopeCholesky::kOk);
+      std::vector<double> ref(3 * ld, -7.0);
+      REQUIRE(s.chol.solve_forwarded(ref.data(), ld) == EnvelopeCholesky::kOk);
+      std::vector<double> lref;
+      for (uint32_t i = 0; i < nv; ++i)
+        for (uint32_t j = 0; j <= i; ++j) lref.push_back(s.chol.get(i, j));
+      // Fused, on a storage left dirty by the factor above.
+      std::vector<double> x(3 * ld, -7.0);
+      REQUIRE(s.chol.assign_factor_forward(off.data(), val.data(), off.size(), B.data(), ld) ==
+              EnvelopeCholesky::kOk);
+      REQUIRE(s.chol.solve_forwarded(x.data(), ld) == EnvelopeCholesky::kOk);
+      CHECK(x == ref);  // bit for bit, and beyond nv untouched (-7)
+      std::vector<double> lfused;
+      for (uint32_t i = 0; i < nv; ++i)
+        for (uint32_t j = 0; j <= i; ++j) lfused.push_back(s.chol.get(i, j));
+      CHECK(lfused == lref);
+      // A matrix that is not positive definite fails as factor() does, with
+      // the same row; an offset past the storage is refused.
+      std::vector<double> bad = val;
+      const std::size_t d = std::size_t(std::lower_bound(off.begin(), off.end(),
+                                                         uint64_t(s.chol.offset_of(nv / 2, nv / 2))) - off.begin());
+      bad[d] = -1.0;
+      CHECK(s.chol.assign_factor_forward(off.data(), bad.data(), off.size(), B.data(), ld) ==
+            EnvelopeCholesky::kNotPositiveDefinite);
+      const int64_t failed = s.chol.failed_row();
+      CHECK(s.chol.solve_forwarded(x.data(), ld) == EnvelopeCholesky::kNotReady);
+      s.chol.assign_sorted(off.data(), bad.data(), off.size());
+      CHECK(s.chol.factor() == EnvelopeCholesky::kNotPositiveDefinite);
+      CHECK(s.chol.failed_row() == failed);
+      std::vector<uint64_t> past = off;
+      past.back() = s.chol.stored_entries();
+      CHECK(s.chol.assign_factor_forward(past.data(), val.data(), past.size(), B.data(), ld) ==
+            EnvelopeCholesky::kOutOfPattern);
+    }
+  }
+}
+
 TEST_CASE("cholesky: portable, AVX2 and AVX-512 kernels agree on the factor") {
   KernelGuard guard;
   Mesh mesh(11);
