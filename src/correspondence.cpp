@@ -28,17 +28,13 @@ double indicator_t(const VolumeView& vol, const double p[3]) {
   double acc = 0;
   if (q[0] >= 0 && q[1] >= 0 && q[2] >= 0 && q[0] + 1 < D[0] && q[1] + 1 < D[1] && q[2] + 1 < D[2]) {
     // All eight corners inside: the same sum without the bounds tests.
-    // Branch-free: near the surface (where the search samples) whether a
-    // corner is set is a coin toss for the branch predictor. A clear corner
-    // adds 0.0 * w = +0, which leaves the sum's bits as the skipped term did.
     const unsigned char* o = base + q[0] * S[0] + q[1] * S[1] + q[2] * S[2];
-    const double wx[2] = {1 - f[0], f[0]}, wy[2] = {1 - f[1], f[1]}, wz[2] = {1 - f[2], f[2]};
     for (int c = 0; c < 8; ++c) {
       const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
       T v;
       std::memcpy(&v, o + dx * S[0] + dy * S[1] + dz * S[2], sizeof(T));
-      const double set = v != T(0) ? 1.0 : 0.0;
-      acc += set * (wx[dx] * wy[dy] * wz[dz]);
+      if (v == T(0)) continue;
+      acc += (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
     }
     return acc;
   }

@@ -401,12 +401,30 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
       if (f(c.cl_tris[k])) return true;
     return false;
   };
-  // Triangle t against the triangles of cluster d, when t's box meets d's.
+  // Triangle t against the triangles of cluster d, when t's box meets d's:
+  // first the box test against every triangle of d, without branches, on
+  // the certificate's packed boxes (the same bounds as s.lo / s.hi), then
+  // decide() on the ones that meet t's box (its own box test passes again).
+  const size_t nt = c.ntri;
+  const double *plx = c.pbox, *ply = plx + nt, *plz = ply + nt, *phx = plz + nt, *phy = phx + nt, *phz = phy + nt;
   auto against = [&](uint32_t t, uint32_t d) {
     const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t), *bd = c.box + 6 * size_t(d);
     if (bd[0] > ht[0] || lt[0] > bd[3] || bd[1] > ht[1] || lt[1] > bd[4] || bd[2] > ht[2] || lt[2] > bd[5])
       return false;
-    return cluster_tris(d, [&](uint32_t u) { return decide(t, u); });
+    const double l0 = lt[0], l1 = lt[1], l2 = lt[2], h0 = ht[0], h1 = ht[1], h2 = ht[2];
+    constexpr int kChunk = 64;
+    uint32_t cand[kChunk];
+    for (uint32_t k0 = c.tri_ptr[d], end = c.tri_ptr[d + 1]; k0 < end; k0 += kChunk) {
+      const uint32_t k1 = end - k0 < uint32_t(kChunk) ? end : k0 + kChunk;
+      int nc = 0;
+      for (uint32_t k = k0; k < k1; ++k) {
+        cand[nc] = k;
+        nc += !(plx[k] > h0 || l0 > phx[k] || ply[k] > h1 || l1 > phy[k] || plz[k] > h2 || l2 > phz[k]);
+      }
+      for (int i = 0; i < nc; ++i)
+        if (decide(t, c.cl_tris[cand[i]])) return true;
+    }
+    return false;
   };
   for (uint32_t i = 0; i < c.nfailed; ++i) {
     const uint32_t cl = c.failed[i];

@@ -57,6 +57,8 @@ void PatchCertificate::carve(Arena& a, const CubeSphere& m) {
   cl_tris = a.alloc<uint32_t>(m.triangle_count());
   tn = a.alloc<double>(size_t(3) * m.triangle_count());
   tmargin = a.alloc<double>(m.triangle_count());
+  ntri = m.triangle_count();
+  pbox = a.alloc<double>(size_t(6) * ntri);
   nb_cnt = a.alloc<uint32_t>(cap);
   nb = a.alloc<uint32_t>(size_t(kMaxNeighbours) * cap);
   loop_ptr = a.alloc<uint32_t>(size_t(cap) + 1);
@@ -222,6 +224,8 @@ bool PatchCertificate::certify(const double* x, const double* normals,
         s[a] += n[a];
         e = th[a] - tl[a] > e ? th[a] - tl[a] : e;
         tn[3 * size_t(k) + a] = n[a];
+        pbox[a * size_t(ntri) + k] = tl[a];
+        pbox[(3 + a) * size_t(ntri) + k] = th[a];
       }
       tmargin[k] = 1e-6 * (std::fabs(n[0]) + std::fabs(n[1]) + std::fabs(n[2])) + 1e-12 * e * e;
     }

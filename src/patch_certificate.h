@@ -55,6 +55,11 @@ struct PatchCertificate {
   uint32_t* cl_tris = nullptr;       // triangle count, in cluster order
   double* tn = nullptr;              // per call, cluster order: 3 per triangle, its normal
   double* tmargin = nullptr;         // per call, cluster order: the orientation margin of the triangle
+  // Per call, cluster order: the triangles' boxes (lo, hi as passed to
+  // certify()), one array per bound: pbox[a * ntri + k] the lo of axis a,
+  // pbox[(3 + a) * ntri + k] the hi, for the callers' pair filters.
+  double* pbox = nullptr;
+  uint32_t ntri = 0;
   uint32_t* nb_cnt = nullptr;        // per cluster: window clusters (C first), at most kMaxNeighbours
   uint32_t* nb = nullptr;            // kMaxNeighbours per cluster
   uint32_t* loop_ptr = nullptr;      // ncl + 1; an empty loop: the window cannot be certified
