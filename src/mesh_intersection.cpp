@@ -39,6 +39,8 @@ void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
   face_n_new = a.alloc<double>(size_t(6) * m.nfaces);
   face_alt_old = a.alloc<uint8_t>(m.nfaces);
   face_alt_new = a.alloc<uint8_t>(m.nfaces);
+  new_key = a.alloc<double>(size_t(3) * m.nv);
+  new_key_valid = false;
   grid.carve(a, nt);
   cert.carve(a, m);
   tracked = false;

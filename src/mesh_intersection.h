@@ -52,6 +52,12 @@ struct TriangleScratch {
   double* face_n_new = nullptr;
   uint8_t* face_alt_old = nullptr;
   uint8_t* face_alt_new = nullptr;
+  // The positions (3 per vertex) the face_*_new cache was left valid for by
+  // the last guard_step(), when new_key_valid: the next step's old positions
+  // are usually these, and then the cache is swapped in instead of computed.
+  double* new_key = nullptr;
+  bool new_key_valid = false;
+  uint32_t reused_old_cache = 0;  // guard steps that swapped it in
   // The yes/no query (mark == nullptr) first tries to certify the mesh's
   // local windows free of crossings (patch_certificate.h); use_certificate =
   // false always takes the plain path (tests compare the two).

@@ -1,6 +1,7 @@
 #include "step_guard.h"
 
 #include <cstring>
+#include <utility>
 
 #include "rasterize.h"
 
@@ -316,8 +317,17 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // {1, 1/2, 1/4} that turns no triangle by 90 degrees and folds no edge.
   // Scaling the whole update keeps it smooth.
   const size_t nv = m.nv;
-  // Splits and normals at x_old, fixed for the whole step.
-  for (uint32_t f = 0; f < m.nfaces; ++f) cache_face(m, f, x_old, ts.face_n_old, ts.face_alt_old);
+  // Splits and normals at x_old, fixed for the whole step: the last step's
+  // cache at its accepted positions when these are x_old bit for bit (the
+  // same function of the same bits), else computed.
+  if (ts.new_key_valid && std::memcmp(ts.new_key, x_old, 3 * nv * sizeof(double)) == 0) {
+    std::swap(ts.face_n_old, ts.face_n_new);
+    std::swap(ts.face_alt_old, ts.face_alt_new);
+    ++ts.reused_old_cache;
+  } else {
+    for (uint32_t f = 0; f < m.nfaces; ++f) cache_face(m, f, x_old, ts.face_n_old, ts.face_alt_old);
+  }
+  ts.new_key_valid = false;
   for (size_t v = 0; v < nv; ++v) share[v] = 1.0;
   double s = 1.0;
   blend(nv, x_old, x_new, s, share, xs, nullptr);
@@ -372,6 +382,9 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
     clean = !violates(m, xs, ts);
   }
   double kept = 0;
+  // Whether the accepted positions are the last tested ones (xs), whose
+  // splits and normals the face_*_new cache holds: then they are its key.
+  bool tested = true;
   for (size_t v = 0; v < nv; ++v) {
     const double f = g * share[v];
     kept += f;
@@ -379,7 +392,12 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
       double& p = x_new[c * nv + v];
       const double o = x_old[3 * v + c];
       p = o + f * (p - o);
+      tested = tested && same_bits(p, xs[3 * v + c]);
     }
+  }
+  if (tested) {
+    std::memcpy(ts.new_key, xs, 3 * nv * sizeof(double));
+    ts.new_key_valid = true;
   }
   return nv ? kept / double(nv) : 1.0;
 }

@@ -165,6 +165,45 @@ TEST_CASE("step guard: a step that would cross is held back where it crosses, th
   CHECK(dot > 0);
 }
 
+TEST_CASE("step guard: the last step's fold-test cache, swapped in at its accepted positions, changes nothing") {
+  // One scratch kept across steps (the cache of the accepted positions is
+  // reused as the next step's old one) against a scratch told each time that
+  // it has nothing to reuse: the same shares and positions bit for bit, over
+  // steps that pass whole, back off locally and back off entirely.
+  StageBox a(12), b(12);
+  const uint32_t nv = a.m.nv;
+  std::mt19937_64 rng(99);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  std::vector<double> x = a.sphere(10);
+  std::vector<double> xs(size_t(3) * nv), share(nv), xs2(size_t(3) * nv), share2(nv);
+  std::vector<uint8_t> mark(nv), grow(nv), mark2(nv), grow2(nv);
+  uint32_t backed_off = 0;
+  for (int step = 0; step < 12; ++step) {
+    CAPTURE(step);
+    std::vector<double> prop(size_t(3) * nv);
+    const uint32_t bad = step % 3 == 1 ? uint32_t(step * 37) % nv : nv;  // every third: one vertex through
+    for (uint32_t v = 0; v < nv; ++v)
+      for (int c = 0; c < 3; ++c)
+        prop[size_t(c) * nv + v] = v == bad ? -5.0 * x[3 * v + c] : x[3 * v + c] + 0.3 * U(rng);
+    std::vector<double> p1 = prop, p2 = prop;
+    b.tri.new_key_valid = false;
+    const double k1 = ffseg::guard_step(a.m, x.data(), p1.data(), xs.data(), share.data(), mark.data(), grow.data(),
+                                        a.tri);
+    const double k2 = ffseg::guard_step(b.m, x.data(), p2.data(), xs2.data(), share2.data(), mark2.data(),
+                                        grow2.data(), b.tri);
+    CHECK(k1 == k2);
+    CHECK(share == share2);
+    REQUIRE(p1 == p2);
+    backed_off += k1 < 1.0;
+    for (uint32_t v = 0; v < nv; ++v)
+      for (int c = 0; c < 3; ++c) x[3 * v + c] = p1[size_t(c) * nv + v];
+    CHECK(ffseg::mark_intersections(a.m, x.data(), a.tri, nullptr) == 0);
+  }
+  CHECK(backed_off >= 3);
+  CHECK(a.tri.reused_old_cache >= 6);  // swapped in on most steps
+  CHECK(b.tri.reused_old_cache == 0);
+}
+
 TEST_CASE("self-intersection test: the patch certificate answers the yes/no query as the grid path does") {
   // Smooth, rough, bumped, flattened and folded spheres: the query with the
   // certificate (windows projected onto their mean normal, far clusters by
