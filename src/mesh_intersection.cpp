@@ -409,14 +409,20 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
   // decide() on the ones that meet t's box (its own box test passes again).
   const size_t nt = c.ntri;
   const double *plx = c.pbox, *ply = plx + nt, *plz = ply + nt, *phx = plz + nt, *phy = phx + nt, *phz = phy + nt;
-  auto against = [&](uint32_t t, uint32_t d) {
+  // above: with a triangle id, only the triangles after it in d's list
+  // (kNone: all of them).
+  auto against = [&](uint32_t t, uint32_t d, uint32_t above) {
     const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t), *bd = c.box + 6 * size_t(d);
     if (bd[0] > ht[0] || lt[0] > bd[3] || bd[1] > ht[1] || lt[1] > bd[4] || bd[2] > ht[2] || lt[2] > bd[5])
       return false;
     const double l0 = lt[0], l1 = lt[1], l2 = lt[2], h0 = ht[0], h1 = ht[1], h2 = ht[2];
     constexpr int kChunk = 64;
     uint32_t cand[kChunk];
-    for (uint32_t k0 = c.tri_ptr[d], end = c.tri_ptr[d + 1]; k0 < end; k0 += kChunk) {
+    uint32_t first = c.tri_ptr[d];
+    if (above != kNone)
+      while (first < c.tri_ptr[d + 1] && c.cl_tris[first++] != above) {
+      }
+    for (uint32_t k0 = first, end = c.tri_ptr[d + 1]; k0 < end; k0 += kChunk) {
       const uint32_t k1 = end - k0 < uint32_t(kChunk) ? end : k0 + kChunk;
       int nc = 0;
       for (uint32_t k = k0; k < k1; ++k) {
@@ -428,18 +434,24 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
     }
     return false;
   };
+  // Each pair once: a failed neighbour D < C whose window holds C (always,
+  // unless D's list overflowed) has already tested its triangles against
+  // C's, and within C a triangle meets only the ones after it.
   for (uint32_t i = 0; i < c.nfailed; ++i) {
     const uint32_t cl = c.failed[i];
     const uint32_t* w = c.nb + size_t(PatchCertificate::kMaxNeighbours) * cl;
     const bool hit = cluster_tris(cl, [&](uint32_t t) {
-      for (uint32_t k = 0; k < c.nb_cnt[cl]; ++k)
-        if (against(t, w[k])) return true;
+      for (uint32_t k = 0; k < c.nb_cnt[cl]; ++k) {
+        const uint32_t d = w[k];
+        if (d != cl && c.is_failed[d] && d < cl && c.neighbours(d, cl)) continue;
+        if (against(t, d, d == cl ? t : kNone)) return true;
+      }
       return false;
     });
     if (hit) return 1;
   }
   const bool far_hit = c.for_each_far_pair(
-      [&](uint32_t a, uint32_t b) { return cluster_tris(a, [&](uint32_t t) { return against(t, b); }); });
+      [&](uint32_t a, uint32_t b) { return cluster_tris(a, [&](uint32_t t) { return against(t, b, kNone); }); });
   return far_hit ? 1 : 0;
 }
 

@@ -70,6 +70,7 @@ void PatchCertificate::carve(Arena& a, const CubeSphere& m) {
   nsum = a.alloc<double>(size_t(3) * cap);
   order = a.alloc<uint32_t>(cap);
   failed = a.alloc<uint32_t>(cap);
+  is_failed = a.alloc<uint8_t>(cap);
   face_mark = a.alloc<uint8_t>(m.nfaces);
   vert_mark = a.alloc<uint8_t>(m.nv);
   next = a.alloc<uint32_t>(m.nv);
@@ -318,6 +319,7 @@ bool PatchCertificate::certify(const double* x, const double* normals,
       }
       if (ok && crossings != 1) ok = false;
     }
+    is_failed[c] = !ok;
     if (!ok) {
       if (nfailed == max_failed) return false;
       failed[nfailed++] = c;

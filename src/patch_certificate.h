@@ -71,6 +71,8 @@ struct PatchCertificate {
   uint32_t* order = nullptr; // clusters by box lo x (kept between calls: nearly sorted)
   uint32_t* failed = nullptr;
   uint32_t nfailed = 0;
+  uint8_t* is_failed = nullptr;  // per cluster, per call: its window is in failed
+
   // Build scratch.
   uint8_t* face_mark = nullptr;
   uint8_t* vert_mark = nullptr;
