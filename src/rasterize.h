@@ -9,9 +9,11 @@
 namespace ffseg {
 
 namespace detail {
-inline double split_cos(const double* a, const double* b, const double* c, const double* d) {
-  // cos of the angle between the normals of triangles (a, b, c) and (a, c, d).
-  double u[3], w[3], n1[3], n2[3];
+inline double split_cos(const double* a, const double* b, const double* c, const double* d, double n1[3],
+                        double n2[3]) {
+  // cos of the angle between the normals n1 of triangle (a, b, c) and n2 of
+  // (a, c, d), each (second - first) x (third - first).
+  double u[3], w[3];
   for (int k = 0; k < 3; ++k) { u[k] = b[k] - a[k]; w[k] = c[k] - a[k]; }
   n1[0] = u[1] * w[2] - u[2] * w[1]; n1[1] = u[2] * w[0] - u[0] * w[2]; n1[2] = u[0] * w[1] - u[1] * w[0];
   for (int k = 0; k < 3; ++k) { u[k] = c[k] - a[k]; w[k] = d[k] - a[k]; }
@@ -19,6 +21,13 @@ inline double split_cos(const double* a, const double* b, const double* c, const
   const double l = (n1[0] * n1[0] + n1[1] * n1[1] + n1[2] * n1[2]) * (n2[0] * n2[0] + n2[1] * n2[1] + n2[2] * n2[2]);
   return l > 0 ? (n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]) / __builtin_sqrt(l) : -1.0;
 }
+inline double split_cos(const double* a, const double* b, const double* c, const double* d) {
+  double n1[3], n2[3];
+  return split_cos(a, b, c, d, n1, n2);
+}
+// Whether face_triangles() splits the quad p0 p1 p2 p3 along the 1-3
+// diagonal, given the two splits' cosines.
+inline bool split_alt(double cos02, double cos13) { return cos13 > cos02 + 1e-12; }
 }  // namespace detail
 
 // Writes the triangles of face f (3 or 6 indices); returns how many triangles.
@@ -49,7 +58,7 @@ inline int face_triangles(const CubeSphere& m, uint32_t f, uint32_t out[6], cons
   if (x && q[3] != kNone) {
     const double *p0 = x + 3 * size_t(q[0]), *p1 = x + 3 * size_t(q[1]), *p2 = x + 3 * size_t(q[2]),
                  *p3 = x + 3 * size_t(q[3]);
-    alt = detail::split_cos(p1, p2, p3, p0) > detail::split_cos(p0, p1, p2, p3) + 1e-12;
+    alt = detail::split_alt(detail::split_cos(p0, p1, p2, p3), detail::split_cos(p1, p2, p3, p0));
   }
   return face_split(m, f, alt, out);
 }

@@ -158,12 +158,25 @@ namespace {
 // tri_normal() of the same vertices in the same order as face_offences(), so
 // the same bits. cache_face: face f split at x and its triangles' normals.
 void cache_face(const CubeSphere& m, uint32_t f, const double* x, double* n, uint8_t* alt) {
-  uint32_t tri[6] = {0, 0, 0, 0, 0, 0};
-  const int nt = face_triangles(m, f, tri, x);
-  alt[f] = nt == 2 && tri[0] != m.faces[4 * size_t(f)];
-  for (int t = 0; t < nt; ++t) {
-    const uint32_t* id = tri + 3 * t;
-    tri_normal(x + 3 * size_t(id[0]), x + 3 * size_t(id[1]), x + 3 * size_t(id[2]), n + 6 * size_t(f) + 3 * t);
+  const uint32_t* q = m.faces + 4 * size_t(f);
+  double* nf = n + 6 * size_t(f);
+  const double *p0 = x + 3 * size_t(q[0]), *p1 = x + 3 * size_t(q[1]), *p2 = x + 3 * size_t(q[2]);
+  if (q[3] == kNone) {
+    alt[f] = 0;
+    tri_normal(p0, p1, p2, nf);
+    return;
+  }
+  // face_triangles()' split decision, whose two candidate splits' normals
+  // are the triangles' tri_normal()s (same vertices, same order).
+  const double* p3 = x + 3 * size_t(q[3]);
+  double a0[3], a1[3], b0[3], b1[3];
+  const double c02 = detail::split_cos(p0, p1, p2, p3, a0, a1);
+  const double c13 = detail::split_cos(p1, p2, p3, p0, b0, b1);
+  const bool al = detail::split_alt(c02, c13);
+  alt[f] = al;
+  for (int k = 0; k < 3; ++k) {
+    nf[k] = al ? b0[k] : a0[k];
+    nf[3 + k] = al ? b1[k] : a1[k];
   }
 }
 
