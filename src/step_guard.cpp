@@ -50,6 +50,16 @@ double cos_of(const double a[3], const double b[3]) {
   return l > 0 ? (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / __builtin_sqrt(l) : -1.0;
 }
 
+// cos_of(a, b) < kFoldCos, the same answer without the square root and the
+// division where the dot product is not negative (then the cosine is >= 0;
+// only a zero normal, cosine -1 by convention, needs the full test).
+bool folded(const double a[3], const double b[3]) {
+  const double dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const double l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) * (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+  if (dot >= 0 && l > 0) return false;
+  return cos_of(a, b) < kFoldCos;
+}
+
 }  // namespace
 
 namespace {
@@ -81,11 +91,11 @@ uint8_t face_offences(const CubeSphere& m, uint32_t f, const double* x_old, cons
     double a[3], b[3];
     tri_normal(xs + 3 * size_t(tn[0]), xs + 3 * size_t(tn[1]), xs + 3 * size_t(tn[2]), a);
     tri_normal(xs + 3 * size_t(tn[3]), xs + 3 * size_t(tn[4]), xs + 3 * size_t(tn[5]), b);
-    if (cos_of(a, b) < kFoldCos) {
+    if (folded(a, b)) {
       double c[3], d[3];
       tri_normal(x_old + 3 * size_t(tri[0]), x_old + 3 * size_t(tri[1]), x_old + 3 * size_t(tri[2]), c);
       tri_normal(x_old + 3 * size_t(tri[3]), x_old + 3 * size_t(tri[4]), x_old + 3 * size_t(tri[5]), d);
-      if (cos_of(c, d) >= kFoldCos) bits |= kQuadFold;
+      if (!folded(c, d)) bits |= kQuadFold;
     }
   }
   for (int e = 0; e < k; ++e) {
@@ -95,10 +105,10 @@ uint8_t face_offences(const CubeSphere& m, uint32_t f, const double* x_old, cons
     double nf[3], ng[3];
     split_edge_normal(tn, ntn, a, b, xs, nf);
     edge_triangle_normal(m, g, b, a, xs, ng);
-    if (cos_of(nf, ng) >= kFoldCos) continue;
+    if (!folded(nf, ng)) continue;
     edge_triangle_normal(m, f, a, b, x_old, nf);
     edge_triangle_normal(m, g, b, a, x_old, ng);
-    if (cos_of(nf, ng) >= kFoldCos) bits |= uint8_t(kEdgeFold << e);
+    if (!folded(nf, ng)) bits |= uint8_t(kEdgeFold << e);
   }
   return bits;
 }
@@ -215,8 +225,8 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
   uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
   const int ntn = face_split(m, f, alt_new, tn);
   if (nt == 2) {
-    if (cos_of(nn, nn + 3) < kFoldCos) {
-      if (cos_of(no, no + 3) >= kFoldCos) bits |= kQuadFold;
+    if (folded(nn, nn + 3)) {
+      if (!folded(no, no + 3)) bits |= kQuadFold;
     }
   }
   for (int e = 0; e < k; ++e) {
@@ -227,11 +237,11 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
     const int ntg = face_split(m, g, ts.face_alt_new[g], tg);
     const double* nf = cached_edge_normal(tn, ntn, a, b, nn);
     const double* ng = cached_edge_normal(tg, ntg, b, a, ts.face_n_new + 6 * size_t(g));
-    if (cos_of(nf, ng) >= kFoldCos) continue;
+    if (!folded(nf, ng)) continue;
     const int nto = face_split(m, g, ts.face_alt_old[g], tg);
     nf = cached_edge_normal(tri, nt, a, b, no);
     ng = cached_edge_normal(tg, nto, b, a, ts.face_n_old + 6 * size_t(g));
-    if (cos_of(nf, ng) >= kFoldCos) bits |= uint8_t(kEdgeFold << e);
+    if (!folded(nf, ng)) bits |= uint8_t(kEdgeFold << e);
   }
   return bits;
 }

@@ -81,6 +81,7 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
   if (const char* e = std::getenv("FFSEG_LU")) p.lambda_uniform = std::atof(e);
   if (const char* e = std::getenv("FFSEG_LP")) p.lambda_position = std::atof(e);
   if (const char* e = std::getenv("FFSEG_TAU")) p.flip_tau = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_CONV")) p.convergence_mm = std::atof(e);
   REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
   ffseg_volume v = volume_of(t1);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
