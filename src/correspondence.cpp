@@ -1,6 +1,7 @@
 #include "correspondence.h"
 
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 
 #include "spatial_grid.h"  // floor_i64
@@ -28,14 +29,29 @@ double indicator_t(const VolumeView& vol, const double p[3]) {
   double acc = 0;
   if (q[0] >= 0 && q[1] >= 0 && q[2] >= 0 && q[0] + 1 < D[0] && q[1] + 1 < D[1] && q[2] + 1 < D[2]) {
     // All eight corners inside: the same sum without the bounds tests.
+    // Unrolled, each corner's weight (x * y) * z as in the loop below, the
+    // set corners summed in the same order; a clear corner adds +0 (a select,
+    // not a branch: near the surface, where the search samples, whether a
+    // corner is set is a coin toss), which leaves the sum's bits unchanged.
     const unsigned char* o = base + q[0] * S[0] + q[1] * S[1] + q[2] * S[2];
-    for (int c = 0; c < 8; ++c) {
-      const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+    const double x0 = 1 - f[0], x1 = f[0], y0 = 1 - f[1], y1 = f[1], z0 = 1 - f[2], z1 = f[2];
+    const double w00 = x0 * y0, w10 = x1 * y0, w01 = x0 * y1, w11 = x1 * y1;
+    const std::ptrdiff_t s0 = S[0], s1 = S[1], s2 = S[2];
+    auto set = [&](std::ptrdiff_t off) {
       T v;
-      std::memcpy(&v, o + dx * S[0] + dy * S[1] + dz * S[2], sizeof(T));
-      if (v == T(0)) continue;
-      acc += (dx ? f[0] : 1 - f[0]) * (dy ? f[1] : 1 - f[1]) * (dz ? f[2] : 1 - f[2]);
-    }
+      std::memcpy(&v, o + off, sizeof(T));
+      return v != T(0);
+    };
+    const bool c0 = set(0), c1 = set(s0), c2 = set(s1), c3 = set(s0 + s1);
+    const bool c4 = set(s2), c5 = set(s0 + s2), c6 = set(s1 + s2), c7 = set(s0 + s1 + s2);
+    acc += c0 ? w00 * z0 : 0.0;
+    acc += c1 ? w10 * z0 : 0.0;
+    acc += c2 ? w01 * z0 : 0.0;
+    acc += c3 ? w11 * z0 : 0.0;
+    acc += c4 ? w00 * z1 : 0.0;
+    acc += c5 ? w10 * z1 : 0.0;
+    acc += c6 ? w01 * z1 : 0.0;
+    acc += c7 ? w11 * z1 : 0.0;
     return acc;
   }
   for (int c = 0; c < 8; ++c) {
@@ -104,7 +120,10 @@ uint32_t search_binary_t(const VolumeView& vol, uint32_t nv, const double* x, co
           const double mid = 0.5 * (lo + hi);
           double pm[3];
           for (int a = 0; a < 3; ++a) pm[a] = p0[a] + sgn * mid * dir[a];
-          if ((indicator_t<T>(vol, pm) >= 0.5) == inside) lo = mid; else hi = mid;
+          // A select, not a branch (which way the bracket halves is a coin toss).
+          const bool keep = (indicator_t<T>(vol, pm) >= 0.5) == inside;
+          lo = keep ? mid : lo;
+          hi = keep ? hi : mid;
         }
         const double tt = 0.5 * (lo + hi);
         for (int a = 0; a < 3; ++a) target[3 * size_t(v) + a] = u[a] + sgn * tt * normals[3 * size_t(v) + a];
