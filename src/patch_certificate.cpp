@@ -208,11 +208,10 @@ bool PatchCertificate::certify(const double* x, const double* normals,
   // 1e-15 e^2, e the extent of the triangle's box: slivers need the second
   // term of the margin.
   for (uint32_t c = 0; c < ncl; ++c) {
-    double* b = box + 6 * size_t(c);
-    double* s = nsum + 3 * size_t(c);
-    b[0] = b[1] = b[2] = HUGE_VAL;
-    b[3] = b[4] = b[5] = -HUGE_VAL;
-    s[0] = s[1] = s[2] = 0;
+    // Accumulated in locals (the outputs may alias the inputs as far as the
+    // compiler knows, which kept them in memory), stored after the loop.
+    double b[6] = {HUGE_VAL, HUGE_VAL, HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    double s[3] = {0, 0, 0};
     for (uint32_t k = tri_ptr[c]; k < tri_ptr[c + 1]; ++k) {
       const uint32_t t = cl_tris[k];
       const double* n = normals + 3 * size_t(t);
@@ -230,6 +229,8 @@ bool PatchCertificate::certify(const double* x, const double* normals,
       }
       tmargin[k] = 1e-6 * (std::fabs(n[0]) + std::fabs(n[1]) + std::fabs(n[2])) + 1e-12 * e * e;
     }
+    for (int a = 0; a < 6; ++a) box[6 * size_t(c) + a] = b[a];
+    for (int a = 0; a < 3; ++a) nsum[3 * size_t(c) + a] = s[a];
     if (!(std::isfinite(b[0]) && std::isfinite(b[1]) && std::isfinite(b[2]) && std::isfinite(b[3]) &&
           std::isfinite(b[4]) && std::isfinite(b[5])))
       return false;  // non-finite positions: the exact check decides
