@@ -267,6 +267,33 @@ struct Pairs {
     }
     return false;
   }
+  // Triangles t and u sharing exactly one vertex: whether the far vertices
+  // of one lie beyond doubt on one side of the other's plane (fan_pairs()'
+  // filter, with D spanning the two boxes, so every four of their points).
+  bool fan_pair_apart(uint32_t t, uint32_t u) const {
+    const uint32_t* a = s.tris + 3 * size_t(t);
+    const uint32_t* b = s.tris + 3 * size_t(u);
+    int sa = -1, sb = -1;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        if (a[i] == b[j]) {
+          sa = i;
+          sb = j;
+        }
+    if (sa < 0) return false;
+    const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t);
+    const double *lu = s.lo + 3 * size_t(u), *hu = s.hi + 3 * size_t(u);
+    double D = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double l = lt[k] < lu[k] ? lt[k] : lu[k], h = ht[k] > hu[k] ? ht[k] : hu[k];
+      D = h - l > D ? h - l : D;
+    }
+    if (!(D > 1e-80 && D < 1e100)) return false;
+    const double tol = 1e-13 * D * D * D;
+    auto P = [&](uint32_t w) { return x + 3 * size_t(w); };
+    return same_side_certain(s.normal + 3 * size_t(t), P(a[0]), P(b[(sb + 1) % 3]), P(b[(sb + 2) % 3]), tol) ||
+           same_side_certain(s.normal + 3 * size_t(u), P(b[0]), P(a[(sa + 1) % 3]), P(a[(sa + 2) % 3]), tol);
+  }
   bool ordered(uint32_t t, uint32_t u) { return t < u ? consider(t, u) : consider(u, t); }
   int shared_vertices(uint32_t t, uint32_t u) const {
     const uint32_t* a = s.tris + 3 * size_t(t);
@@ -395,7 +422,11 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
   auto decide = [&](uint32_t t, uint32_t u) {
     if (t == u) return false;
     if (t > u) std::swap(t, u);
-    if (P.shared_vertices(t, u) >= 2 || !P.overlap(t, u)) return false;
+    const int shared = P.shared_vertices(t, u);
+    if (shared >= 2 || !P.overlap(t, u)) return false;
+    // Sharing one vertex (most pairs of a failed window): fan_pairs()' plane
+    // filter first, which answers no only where triangles_cross() would.
+    if (shared == 1 && P.fan_pair_apart(t, u)) return false;
     return P.spheres_meet(t, u) && triangles_cross(x, s, t, u);
   };
   auto cluster_tris = [&](uint32_t cl, auto&& f) {
