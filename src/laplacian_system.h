@@ -28,6 +28,14 @@ struct LaplacianProgram {
   uint8_t* eloops = nullptr; // 4 per vertex: loop edges to neighbour k (scratch of build)
   uint32_t count = 0, cap = 0;
   bool ok = false;
+  // laplacian_values()' cache: the entries other than w depend on lambda_L
+  // and lambda_u only, so with the same two the off-diagonal values in val
+  // stand and each diagonal entry is its sum without w (dbase) plus w.
+  uint32_t* diag = nullptr;  // nv: the diagonal entries' indices into val
+  double* dbase = nullptr;   // nv: their sums without w
+  uint32_t ndiag = 0;
+  double cached_l = 0, cached_u = 0;
+  bool cached = false;
   void carve(Arena& a, uint32_t nv);
   // Sets ok when every entry was found in S's envelope.
   void build(const CubeSphere& m, const EnvelopeCholesky& S);

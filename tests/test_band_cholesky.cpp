@@ -684,6 +684,20 @@ TEST_CASE("assembly program: the same matrix, bit for bit, as the plain assembly
       REQUIRE(plain.size() == fast.size());
       CHECK(std::memcmp(plain.data(), fast.data(), plain.size() * sizeof(double)) == 0);
       CHECK(chol.factor() == EnvelopeCholesky::kOk);
+      // The same lambdas again with other weights: the program's cached
+      // off-diagonal values and diagonal sums, still the plain values.
+      std::vector<double> w2(w);
+      for (uint32_t i = 0; i < nv; ++i) w2[i] = i % 5 ? 1.7 - (i % 11) * 0.093 : 0.0;
+      CHECK(prog.cached);
+      std::vector<double> plain2, fast2;
+      ffseg::assemble_laplacian(mesh, L[0], L[1], w2.data(), chol, nullptr);
+      for (uint32_t i = 0; i < nv; ++i)
+        for (uint32_t j = 0; j < nv; ++j) plain2.push_back(chol.get(i, j));
+      ffseg::assemble_laplacian(mesh, L[0], L[1], w2.data(), chol, &prog);
+      for (uint32_t i = 0; i < nv; ++i)
+        for (uint32_t j = 0; j < nv; ++j) fast2.push_back(chol.get(i, j));
+      CHECK(plain2 != plain);
+      CHECK(std::memcmp(plain2.data(), fast2.data(), plain2.size() * sizeof(double)) == 0);
     }
   }
 }
