@@ -465,18 +465,37 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
     }
     return false;
   };
-  // Each pair once: a failed neighbour D < C whose window holds C (always,
-  // unless D's list overflowed) has already tested its triangles against
-  // C's, and within C a triangle meets only the ones after it.
+  // A passing window proves every pair of its triangles, so the pairs of
+  // clusters a and b need no test when some passing window holds both: a's
+  // or b's own, or that of a cluster of a's window.
+  auto covered = [&](uint32_t a, uint32_t b) {
+    if (!c.is_failed[a] && c.neighbours(a, b)) return true;
+    if (!c.is_failed[b] && c.neighbours(b, a)) return true;
+    const uint32_t* w = c.nb + size_t(PatchCertificate::kMaxNeighbours) * a;
+    for (uint32_t k = 0; k < c.nb_cnt[a]; ++k) {
+      const uint32_t e = w[k];
+      if (!c.is_failed[e] && c.neighbours(e, a) && c.neighbours(e, b)) return true;
+    }
+    return false;
+  };
+  // Each remaining pair once: a failed neighbour D < C whose window holds C
+  // (always, unless D's list overflowed) tests (or covers) its triangles
+  // against C's, and within C a triangle meets only the ones after it.
+  uint32_t todo[PatchCertificate::kMaxNeighbours];
   for (uint32_t i = 0; i < c.nfailed; ++i) {
     const uint32_t cl = c.failed[i];
     const uint32_t* w = c.nb + size_t(PatchCertificate::kMaxNeighbours) * cl;
+    uint32_t nd = 0;
+    for (uint32_t k = 0; k < c.nb_cnt[cl]; ++k) {
+      const uint32_t d = w[k];
+      if (d != cl && c.is_failed[d] && d < cl && c.neighbours(d, cl)) continue;
+      if (covered(cl, d)) continue;
+      todo[nd++] = d;
+    }
+    if (nd == 0) continue;
     const bool hit = cluster_tris(cl, [&](uint32_t t) {
-      for (uint32_t k = 0; k < c.nb_cnt[cl]; ++k) {
-        const uint32_t d = w[k];
-        if (d != cl && c.is_failed[d] && d < cl && c.neighbours(d, cl)) continue;
-        if (against(t, d, d == cl ? t : kNone)) return true;
-      }
+      for (uint32_t k = 0; k < nd; ++k)
+        if (against(t, todo[k], todo[k] == cl ? t : kNone)) return true;
       return false;
     });
     if (hit) return 1;
