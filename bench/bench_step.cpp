@@ -33,7 +33,7 @@ int main(int argc, char** argv) {
   std::printf("ffseg_step on the cup phantom (128^3 u8, sphere r = 60 mm around it), run to convergence (at most %d "
               "steps), medians of steps 2..end, one thread\n"
               "(factor = storing the matrix, factorising it and the forward substitution, one pass; bench_solver: "
-              "within about 3%% of factor() alone; solve = the backward substitution)\n\n", steps);
+              "4-7%% over factor() alone at n = 49; solve = the backward substitution)\n\n", steps);
   std::printf("| n | vertices | step ms |");
   for (int s = 0; s < FFSEG_STAGE_COUNT; ++s)
     if (s != FFSEG_STAGE_FEATURES) std::printf(" %s ms |", stage_names[s]);
