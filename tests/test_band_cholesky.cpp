@@ -365,17 +365,30 @@ static void load(EnvelopeCholesky& c, const std::vector<Entry>& t) {
   for (const Entry& e : t) c.add(e.i, e.j, e.v);
 }
 
+// The cube-sphere system of resolution n with weights in [0.25, 3.25) from
+// rng, for the tests of the step's fused calls.
+struct SphereSystem {
+  Mesh mesh;
+  uint32_t nv;
+  Graph g;
+  std::vector<Entry> t;
+  SphereSystem(uint32_t n, std::mt19937_64& rng) : mesh(n), nv(mesh.m.nv), g(two_ring(mesh.m)) {
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    std::vector<double> w(nv);
+    for (uint32_t i = 0; i < nv; ++i) w[i] = 0.25 + 3 * U(rng);
+    t = cube_sphere_system(mesh.m, 1.0, 1.0, 0.25, w);
+  }
+};
+
 TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit for bit, all kernels") {
   KernelGuard guard;
   std::mt19937_64 rng(77);
   std::uniform_real_distribution<double> U(0.0, 1.0);
   for (uint32_t n : {2u, 5u, 12u, 21u}) {
-    Mesh mesh(n);
-    const uint32_t nv = mesh.m.nv;
-    const Graph g = two_ring(mesh.m);
-    std::vector<double> w(nv);
-    for (uint32_t i = 0; i < nv; ++i) w[i] = 0.25 + 3 * U(rng);
-    const std::vector<Entry> t = cube_sphere_system(mesh.m, 1.0, 1.0, 0.25, w);
+    const SphereSystem sys(n, rng);
+    const uint32_t nv = sys.nv;
+    const Graph& g = sys.g;
+    const std::vector<Entry>& t = sys.t;
     const std::size_t ld = nv + 3;  // a leading dimension larger than nv
     std::vector<double> B(3 * ld);
     for (double& b : B) b = 200 * U(rng) - 100;
@@ -416,12 +429,10 @@ TEST_CASE("cholesky: assign_factor_forward equals assign_sorted + factor_forward
   std::mt19937_64 rng(91);
   std::uniform_real_distribution<double> U(0.0, 1.0);
   for (uint32_t n : {2u, 5u, 13u, 21u}) {
-    Mesh mesh(n);
-    const uint32_t nv = mesh.m.nv;
-    const Graph g = two_ring(mesh.m);
-    std::vector<double> w(nv);
-    for (uint32_t i = 0; i < nv; ++i) w[i] = 0.25 + 3 * U(rng);
-    const std::vector<Entry> t = cube_sphere_system(mesh.m, 1.0, 1.0, 0.25, w);
+    const SphereSystem sys(n, rng);
+    const uint32_t nv = sys.nv;
+    const Graph& g = sys.g;
+    const std::vector<Entry>& t = sys.t;
     Solver s(g.csr());
     REQUIRE(s.ok);
     // The matrix as sorted storage offsets, summed in add()'s order.
