@@ -433,11 +433,9 @@ struct EnvelopeAssign {
 
 namespace {
 
-using Assign = EnvelopeAssign;
-
 // Group g's block of the storage: zeros, the padding rows' identity, then
 // the entries a.off[*k..] that fall in it (*k advances past them).
-inline void assign_group(const View& v, const Assign& a, uint32_t g, std::size_t* k) {
+inline void assign_group(const View& v, const EnvelopeAssign& a, uint32_t g, std::size_t* k) {
   const uint32_t s = v.gstart[g];
   const std::size_t w = group_width(g, s);
   const uint64_t b = v.goff[g], e = b + 4 * w;
@@ -453,7 +451,7 @@ inline void assign_group(const View& v, const Assign& a, uint32_t g, std::size_t
 // the factor's rows are completed (still in cache), or nullptr. as: the
 // matrix to store group by group first (the storage as it is: nullptr).
 template <class K>
-inline int factor_impl(const View& v, uint32_t* bad_row, double* const* rhs, const Assign* as) {
+inline int factor_impl(const View& v, uint32_t* bad_row, double* const* rhs, const EnvelopeAssign* as) {
   double acc[16];
   std::size_t next = 0;
   for (uint32_t g = 0; g < v.ngroups; ++g) {
@@ -518,20 +516,23 @@ inline void solve_impl(const View& v, double* y0, double* y1, double* y2, bool f
   backward_all<K>(v, y);
 }
 
-__attribute__((flatten)) int factor_portable(const View& v, uint32_t* bad, double* const* y, const Assign* as) {
+__attribute__((flatten)) int factor_portable(const View& v, uint32_t* bad, double* const* y,
+                                             const EnvelopeAssign* as) {
   return factor_impl<KPortable>(v, bad, y, as);
 }
 __attribute__((flatten)) void solve_portable(const View& v, double* a, double* b, double* c, bool fwd) {
   solve_impl<KPortable>(v, a, b, c, fwd);
 }
 #if FFSEG_BC_X86
-FFSEG_AVX2 __attribute__((flatten)) int factor_avx2(const View& v, uint32_t* bad, double* const* y, const Assign* as) {
+FFSEG_AVX2 __attribute__((flatten)) int factor_avx2(const View& v, uint32_t* bad, double* const* y,
+                                                    const EnvelopeAssign* as) {
   return factor_impl<KAvx2>(v, bad, y, as);
 }
 FFSEG_AVX2 __attribute__((flatten)) void solve_avx2(const View& v, double* a, double* b, double* c, bool fwd) {
   solve_impl<KAvx2>(v, a, b, c, fwd);
 }
-FFSEG_AVX512 __attribute__((flatten)) int factor_avx512(const View& v, uint32_t* bad, double* const* y, const Assign* as) {
+FFSEG_AVX512 __attribute__((flatten)) int factor_avx512(const View& v, uint32_t* bad, double* const* y,
+                                                        const EnvelopeAssign* as) {
   return factor_impl<KAvx512>(v, bad, y, as);
 }
 FFSEG_AVX512 __attribute__((flatten)) void solve_avx512(const View& v, double* a, double* b,
@@ -706,7 +707,7 @@ void EnvelopeCholesky::assign_sorted(const uint64_t* off, const double* v, std::
   // Group by group: zero its block, the padding rows' identity, then the
   // values that fall in it (the block is still in cache).
   const View view{ngroups_, gstart_, goff_, val_, invdiag_};
-  const Assign as{off, v, count, n_, npad_};
+  const EnvelopeAssign as{off, v, count, n_, npad_};
   std::size_t k = 0;
   for (uint32_t g = 0; g < ngroups_; ++g) assign_group(view, as, g, &k);
 }
@@ -719,12 +720,14 @@ double EnvelopeCholesky::get(uint32_t i, uint32_t j) const {
 
 int EnvelopeCholesky::factor() { return factor_with(nullptr, nullptr); }
 
-int EnvelopeCholesky::factor_forward(const double* b, std::size_t ld) {
+int EnvelopeCholesky::factor_forward(const double* b, std::size_t ld) { return forward_with(b, ld, nullptr); }
+
+int EnvelopeCholesky::forward_with(const double* b, std::size_t ld, const EnvelopeAssign* as) {
   forwarded_ = false;
   if (!ready_ || b == nullptr) return kNotReady;
   double* y[3] = {work_, work_ + npad_, work_ + 2 * std::size_t(npad_)};
   load_permuted(b, 3, ld, y);
-  const int rc = factor_with(y, nullptr);
+  const int rc = factor_with(y, as);
   forwarded_ = rc == kOk;
   return rc;
 }
@@ -737,15 +740,11 @@ int EnvelopeCholesky::assign_factor_forward(const uint64_t* off, const double* v
   if (!ready_ || b == nullptr || (count && (off == nullptr || v == nullptr))) return kNotReady;
   // Offsets past the storage would never be stored by the group walk.
   if (count && off[count - 1] >= stored_) return kOutOfPattern;
-  double* y[3] = {work_, work_ + npad_, work_ + 2 * std::size_t(npad_)};
-  load_permuted(b, 3, ld, y);
-  const Assign as{off, v, count, n_, npad_};
-  const int rc = factor_with(y, &as);
-  forwarded_ = rc == kOk;
-  return rc;
+  const EnvelopeAssign as{off, v, count, n_, npad_};
+  return forward_with(b, ld, &as);
 }
 
-int EnvelopeCholesky::factor_with(double* const* y, const Assign* as) {
+int EnvelopeCholesky::factor_with(double* const* y, const EnvelopeAssign* as) {
   factored_ = forwarded_ = false;
   failed_row_ = -1;
   if (!ready_) return kNotReady;

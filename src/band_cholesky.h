@@ -165,6 +165,8 @@ class EnvelopeCholesky {
 
  private:
   int factor_with(double* const* y, const EnvelopeAssign* as);
+  // factor_forward() with as (nullptr: the storage as it is) stored first.
+  int forward_with(const double* b, std::size_t ld, const EnvelopeAssign* as);
   // Permuted copies of cnt columns b + q * ld into y[0..2] (zero columns
   // and padding beyond).
   void load_permuted(const double* b, int cnt, std::size_t ld, double* const* y) const;

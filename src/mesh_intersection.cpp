@@ -209,7 +209,6 @@ struct Pairs {
   // (the triangles of its four faces that hold it), each once; with touched,
   // only the pairs with a touched triangle.
   bool fan_pairs(const uint8_t* touched) {
-    auto P = [&](uint32_t w) { return x + 3 * size_t(w); };
     for (uint32_t v = 0; v < m.nv; ++v) {
       // The fan: triangles holding v, each with its two far vertices in its
       // cyclic order after v.
@@ -247,7 +246,7 @@ struct Pairs {
       double D = 0;
       for (int a = 0; a < 3; ++a) D = hi[a] - lo[a] > D ? hi[a] - lo[a] : D;
       const bool filter = D > 1e-80 && D < 1e100;
-      const double tol = filter ? 1e-13 * D * D * D : 0.0;
+      const double tol = filter ? fan_tol(D) : 0.0;
       for (int i = 0; i < k; ++i)
         for (int j = i + 1; j < k; ++j) {
           // Sharing only v: no far vertex in common (else an edge).
@@ -256,20 +255,26 @@ struct Pairs {
           const int ti = fan[i] < fan[j] ? i : j, ui = fan[i] < fan[j] ? j : i;
           const uint32_t t = fan[ti], u = fan[ui];
           if (touched && !touched[t] && !touched[u]) continue;
-          if (filter && (same_side_certain(s.normal + 3 * size_t(t), P(s.tris[3 * size_t(t)]), P(far[ui][0]),
-                                           P(far[ui][1]), tol) ||
-                         same_side_certain(s.normal + 3 * size_t(u), P(s.tris[3 * size_t(u)]), P(far[ti][0]),
-                                           P(far[ti][1]), tol)))
-            continue;
+          if (filter && planes_apart(t, u, far[ti], far[ui], tol)) continue;
           if (!spheres_meet(t, u) || !triangles_cross(x, s, t, u)) continue;
           if (hit(t, u)) return true;
         }
     }
     return false;
   }
-  // Triangles t and u sharing exactly one vertex: whether the far vertices
-  // of one lie beyond doubt on one side of the other's plane (fan_pairs()'
-  // filter, with D spanning the two boxes, so every four of their points).
+  // The rounding bound of same_side_certain() for points within a box of
+  // largest extent D (finite, not tiny).
+  static double fan_tol(double D) { return 1e-13 * D * D * D; }
+  // Triangles t and u sharing one vertex, far_t / far_u their two other
+  // vertices: whether the far vertices of one lie beyond doubt on one side of
+  // the other's plane (then triangles_cross() says no).
+  bool planes_apart(uint32_t t, uint32_t u, const uint32_t* far_t, const uint32_t* far_u, double tol) const {
+    auto P = [&](uint32_t w) { return x + 3 * size_t(w); };
+    return same_side_certain(s.normal + 3 * size_t(t), P(s.tris[3 * size_t(t)]), P(far_u[0]), P(far_u[1]), tol) ||
+           same_side_certain(s.normal + 3 * size_t(u), P(s.tris[3 * size_t(u)]), P(far_t[0]), P(far_t[1]), tol);
+  }
+  // fan_pairs()' filter for one pair sharing exactly one vertex, with D
+  // spanning the two boxes (so every four of their points).
   bool fan_pair_apart(uint32_t t, uint32_t u) const {
     const uint32_t* a = s.tris + 3 * size_t(t);
     const uint32_t* b = s.tris + 3 * size_t(u);
@@ -289,10 +294,8 @@ struct Pairs {
       D = h - l > D ? h - l : D;
     }
     if (!(D > 1e-80 && D < 1e100)) return false;
-    const double tol = 1e-13 * D * D * D;
-    auto P = [&](uint32_t w) { return x + 3 * size_t(w); };
-    return same_side_certain(s.normal + 3 * size_t(t), P(a[0]), P(b[(sb + 1) % 3]), P(b[(sb + 2) % 3]), tol) ||
-           same_side_certain(s.normal + 3 * size_t(u), P(b[0]), P(a[(sa + 1) % 3]), P(a[(sa + 2) % 3]), tol);
+    const uint32_t far_t[2] = {a[(sa + 1) % 3], a[(sa + 2) % 3]}, far_u[2] = {b[(sb + 1) % 3], b[(sb + 2) % 3]};
+    return planes_apart(t, u, far_t, far_u, fan_tol(D));
   }
   bool ordered(uint32_t t, uint32_t u) { return t < u ? consider(t, u) : consider(u, t); }
   int shared_vertices(uint32_t t, uint32_t u) const {

@@ -45,19 +45,15 @@ void edge_triangle_normal(const CubeSphere& m, uint32_t f, uint32_t a, uint32_t 
   split_edge_normal(tri, face_triangles(m, f, tri, x), a, b, x, n);
 }
 
-double cos_of(const double a[3], const double b[3]) {
-  const double l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) * (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
-  return l > 0 ? (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / __builtin_sqrt(l) : -1.0;
-}
-
-// cos_of(a, b) < kFoldCos, the same answer without the square root and the
-// division where the dot product is not negative (then the cosine is >= 0;
-// only a zero normal, cosine -1 by convention, needs the full test).
+// Whether the angle between normals a and b folds: cos < kFoldCos, the
+// cosine dot / sqrt(|a|^2 |b|^2), -1 by convention for a zero normal. No
+// square root or division where the dot product is not negative (then the
+// cosine is >= 0).
 bool folded(const double a[3], const double b[3]) {
   const double dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
   const double l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) * (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
   if (dot >= 0 && l > 0) return false;
-  return cos_of(a, b) < kFoldCos;
+  return (l > 0 ? dot / __builtin_sqrt(l) : -1.0) < kFoldCos;
 }
 
 }  // namespace
