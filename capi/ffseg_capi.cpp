@@ -211,6 +211,7 @@ FFSEG_API void ffseg_params_init_default(ffseg_params* p) {
   p->sigma_floor_fraction = d.sigma_floor_fraction;
   p->bin_radius = d.bin_radius;
   p->bin_separation = d.bin_separation;
+  p->partial_volume_steps = d.partial_volume_steps;
 }
 
 #define FFSEG_REQUIRE_ENGINE(e)                                   \
@@ -253,6 +254,7 @@ FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p) 
   q.sigma_floor_fraction = full.sigma_floor_fraction;
   q.bin_radius = full.bin_radius;
   q.bin_separation = full.bin_separation;
+  q.partial_volume_steps = full.partial_volume_steps;
   return to_status(en->set_params(q));
 }
 

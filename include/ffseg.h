@@ -186,6 +186,12 @@ typedef struct ffseg_params {
                                     under-estimates the spread); [0, 1]; default 0.05 */
   double bin_radius;             /* R of Algorithm 2, intensity units; 0 = 2 x the sigma floor; [0, 1e9]; default 0 */
   double bin_separation;         /* S of Algorithm 2, intensity units; 0 = 4 x the sigma floor; [0, 1e9]; default 0 */
+  uint32_t partial_volume_steps; /* grey-level targets: once an object comes to rest, at most this many more
+                                    steps with each boundary moved from where the intensity model gives up to
+                                    the half-way level between the object's class and the competing class
+                                    beyond it (partial-volume voxels that are mostly object; see
+                                    src/intensity_search.h), or until it rests again; 0 = off; 0..1000;
+                                    default 4 */
 } ffseg_params;
 
 /* Fills *p with the defaults above and struct_size = sizeof(ffseg_params). */

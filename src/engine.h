@@ -61,6 +61,11 @@ struct Params {
   double sigma_floor_fraction = 0.05;
   double bin_radius = 0;
   double bin_separation = 0;
+  // Grey-level targets: once an object comes to rest on the g crossings, this
+  // many more steps with partial-volume boundaries (intensity_search.h), or
+  // until it rests again; 0: off. 4 steps of step_size 0.5 cover 1 - 0.5^4 =
+  // 94% of a boundary's move.
+  uint32_t partial_volume_steps = 4;
 
   static constexpr double kBinaryRange = 80.0;
   static constexpr double kIntensityRange = 20.0;
@@ -86,6 +91,15 @@ struct Object {
   IntensityModel model;
   double kappa = 0;  // the conductance used, kept when the crop is recomputed
   bool polish = false;  // came to rest once: diffusion reduced (engine.cpp)
+  // Grey-level targets: came to rest once, now on partial-volume boundaries
+  // (intensity_search.h) for at most Params::partial_volume_steps steps.
+  bool refining = false;
+  uint32_t refine_steps = 0;
+  void restart() {  // move again from where it is
+    converged = false;
+    refining = false;
+    refine_steps = 0;
+  }
   bool converged = false;  // at rest for good: later steps leave it where it is
 };
 

@@ -25,6 +25,26 @@ namespace {
 
 constexpr uint32_t kWorkBins = IntensityModel::kMaxBins;
 
+// a f(v) without the constant 1 / sqrt(2 pi): a component's weighted density.
+double weighted_density(const Gaussian1& g, double v) {
+  const double d = v - g.mean;
+  return g.weight / std::sqrt(g.var) * std::exp(-0.5 * d * d / g.var);
+}
+
+// The component of c[0..m) with the highest weighted density at v (the first
+// of equals); *sum (if given) receives the densities' sum, in index order.
+uint32_t most_probable(const Gaussian1* c, uint32_t m, double v, double* sum = nullptr) {
+  uint32_t best = 0;
+  double bd = -1, s = 0;
+  for (uint32_t i = 0; i < m; ++i) {
+    const double f = weighted_density(c[i], v);
+    s += f;
+    if (f > bd) bd = f, best = i;
+  }
+  if (sum) *sum = s;
+  return best;
+}
+
 uint32_t gcd32(uint32_t a, uint32_t b) {
   while (b) {
     const uint32_t t = a % b;
@@ -685,16 +705,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   // The object's classes: the scene components that claim (highest weighted
   // density) the mean of some object component. The others compete.
   bool own[kMaxComponents] = {};
-  for (uint32_t i = 0; i < m_; ++i) {
-    uint32_t best = 0;
-    double bd = -1;
-    for (uint32_t c = 0; c < sm; ++c) {
-      const double d = comp_[i].mean - scene[c].mean;
-      const double w = scene[c].weight / std::sqrt(scene[c].var) * std::exp(-0.5 * d * d / scene[c].var);
-      if (w > bd) bd = w, best = c;
-    }
-    own[best] = true;
-  }
+  for (uint32_t i = 0; i < m_; ++i) own[most_probable(scene, sm, comp_[i].mean)] = true;
   obj_weight_ = 0;
   sm_ = 0;
   for (uint32_t c = 0; c < sm; ++c) {
@@ -773,11 +784,17 @@ uint32_t IntensityModel::fit_mixture(const float* x, uint32_t n, double mean, do
 
 double IntensityModel::density(double v) const {
   double s = 0;
-  for (uint32_t i = 0; i < m_; ++i) {
-    const double d = v - comp_[i].mean;
-    s += comp_[i].weight / std::sqrt(comp_[i].var) * std::exp(-0.5 * d * d / comp_[i].var);
-  }
+  for (uint32_t i = 0; i < m_; ++i) s += weighted_density(comp_[i], v);
   return s;
+}
+
+double IntensityModel::class_mean(double v) const { return m_ ? comp_[most_probable(comp_, m_, v)].mean : 0.0; }
+
+bool IntensityModel::rival_mean(double v, double* mean) const {
+  if (m_ == 0 || sm_ == 0 || !(v == v)) return false;
+  double rival = 0;
+  *mean = scene_[most_probable(scene_, sm_, v, &rival)].mean;
+  return rival > obj_weight_ * density(v);
 }
 
 double IntensityModel::g_direct(double v) const {
@@ -785,10 +802,7 @@ double IntensityModel::g_direct(double v) const {
   const double dv = density(v);
   if (sm_ > 0) {  // a competing class of the scene is more probable: not object
     double rival = 0;
-    for (uint32_t c = 0; c < sm_; ++c) {
-      const double d = v - scene_[c].mean;
-      rival += scene_[c].weight / std::sqrt(scene_[c].var) * std::exp(-0.5 * d * d / scene_[c].var);
-    }
+    for (uint32_t c = 0; c < sm_; ++c) rival += weighted_density(scene_[c], v);
     if (rival > obj_weight_ * dv) return 0;
   }
   const double g = dv / peak_;

@@ -169,6 +169,13 @@ class IntensityModel {
     return g_direct(v);
   }
   double g_direct(double v) const;
+  // The partial-volume level (intensity_search.cpp): the mean of the object
+  // component most probable at v (highest a_i f_i(v)).
+  double class_mean(double v) const;
+  // When a competing class of the scene is more probable at v than the object
+  // (g reads 0 there by the Bayes rule): true, and the mean of the competing
+  // class most probable at v. False without competitors or where the object wins.
+  bool rival_mean(double v, double* mean) const;
 
   uint32_t components() const { return m_; }
   uint32_t competitors() const { return sm_; }

@@ -4,6 +4,47 @@
 
 namespace ffseg {
 
+namespace {
+
+// The partial-volume level of the header note. The ray is p(t) = p0 + sgn t d
+// (index space); the g crossing lies at t, and the background side is at
+// larger t when the vertex is inside (away = +1), at smaller t when it is
+// outside (away = -1). Returns the crossing of the half-way level, or t.
+double partial_volume_crossing(const SmoothedRoi& roi, const IntensityModel& model, const double p0[3],
+                               const double d[3], double sgn, double away, double t, double step, uint32_t N,
+                               uint32_t iterations) {
+  // Smoothed intensity at distance sd beyond the g crossing, towards the background.
+  auto value_at = [&](double sd, double* v) {
+    const double q = t + away * sd;
+    const double p[3] = {p0[0] + sgn * q * d[0], p0[1] + sgn * q * d[1], p0[2] + sgn * q * d[2]};
+    if (!roi.inside_index(p)) return false;
+    *v = roi.sample_index(p);
+    return true;
+  };
+  double vg, vb, rival;
+  if (!value_at(0, &vg) || !value_at(double(N) * step, &vb) || !model.rival_mean(vb, &rival)) return t;
+  const double level = 0.5 * (model.class_mean(vg) + rival);
+  const double side = rival > level ? 1.0 : -1.0;  // (v - level) * side >= 0: past the level
+  if ((vg - level) * side >= 0) return t;           // the g crossing is already past it
+  double lo = 0, hi = -1, v;
+  for (uint32_t k = 1; k <= N; ++k) {
+    if (!value_at(double(k) * step, &v)) return t;
+    if ((v - level) * side >= 0) {
+      hi = double(k) * step;
+      break;
+    }
+    lo = double(k) * step;
+  }
+  if (hi < 0) return t;  // not reached within the N confirming steps
+  for (uint32_t it = 0; it < iterations; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    if (value_at(mid, &v) && (v - level) * side < 0) lo = mid; else hi = mid;
+  }
+  return t + away * 0.5 * (lo + hi);
+}
+
+}  // namespace
+
 __attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const IntensityModel& model, uint32_t nv, const double* x,
                           const double* normals, const IntensitySearchSettings& s, double* target, uint8_t* has) {
   for (uint32_t v = 0; v < nv; ++v) has[v] = 0;
@@ -76,7 +117,9 @@ __attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const
       const double mid = 0.5 * (ta + tb);
       if (object_at(mid) == inside) ta = mid; else tb = mid;
     }
-    const double t = 0.5 * (ta + tb);
+    double t = 0.5 * (ta + tb);
+    if (s.partial_volume)
+      t = partial_volume_crossing(roi, model, p0, d, sgn, inside ? 1.0 : -1.0, t, step, N, s.refine_iterations);
     for (int a = 0; a < 3; ++a) target[3 * size_t(v) + a] = u[a] + sgn * t * n[a];
     has[v] = 1;
     ++found;

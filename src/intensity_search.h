@@ -16,6 +16,27 @@
 //    that starts N consecutive object samples; the boundary lies just before it.
 // The crossing is then refined by bisection of g - Gamma on [t_j, t_j+1]
 // (outward) or [t_j-1, t_j] (inward). No such j: the vertex is solitary.
+//
+// Partial-volume level (partial_volume = true). The g crossing is where the
+// object's likelihood gives up, not where the tissue changes: between a
+// caudate of 88 and CSF of 33 (Colin27) g = Gamma at 79, 16% of the way into
+// the blurred edge, so a mesh on the g crossings sits inside the organ by
+// about a third of the edge's width wherever a distant class borders it. A
+// voxel at the edge is mostly object while its value is nearer the object's
+// class than the neighbour's: the boundary is the half-way level
+//   (mu_object + mu_rival) / 2,
+// mu_object the mean of the object component most probable at the g
+// crossing, mu_rival the mean of the scene's competing class that claims
+// (Bayes rule of intensity_model.h) the sample N steps beyond the crossing on
+// the background side. The crossing moves there, away from the object, when
+// the level is reached within those N steps (bisected like the g crossing);
+// it stays put when no competing class claims the background (a weak edge
+// against a similar tissue: no class to be half-way to), when the g crossing
+// is already past the level (a close neighbour: the Bayes cut comes first),
+// or when the level is not reached within N steps. The vertex's own state
+// (inside or outside) is still decided by g, so the rule only ever moves a
+// boundary by at most N samples away from the object. The engine uses it for
+// a few steps once an object has come to rest (Params::partial_volume_steps).
 #pragma once
 #include <cstdint>
 
@@ -30,6 +51,7 @@ struct IntensitySearchSettings {
   double gamma = 0.05;                  // Gamma on the peak-normalised g, (0, 1)
   uint32_t consecutive_background = 3;  // N
   uint32_t refine_iterations = 8;       // bisection steps (step_mm / 256 with the default)
+  bool partial_volume = false;          // boundary at the half-way level (see above)
 };
 
 // h of eq. 5.3.2 at index-space point p.

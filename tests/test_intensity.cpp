@@ -622,6 +622,100 @@ TEST_CASE("intensity: on near noise-free data the variance floor lets the search
   CHECK(face_value < nv / 2);
 }
 
+TEST_CASE("intensity: partial-volume boundaries sit at the half-way level of a blurred edge, from inside and outside") {
+  // A u8 ball of 90 in a background of 30 (1 mm voxels, noise sigma 0.5); the
+  // edge is a linear ramp 2 mm wide centred on R = 12 mm, so the half-way level
+  // 60 lies at R while g gives up about 0.6 mm inside it. (With a 3 mm ramp
+  // the crop's subsampled mixture came out as a single class, mean 36, and
+  // nothing competed: the rule then leaves every target where it is.)
+  TestVolume<uint8_t> v(64, 64, 64, 1, 1, 1);
+  Rng rng(11);
+  const double c[3] = {32, 32, 32}, R = 12;
+  for (int64_t k = 0; k < 64; ++k)
+    for (int64_t j = 0; j < 64; ++j)
+      for (int64_t i = 0; i < 64; ++i) {
+        const double d = std::sqrt(double((i - 32) * (i - 32) + (j - 32) * (j - 32) + (k - 32) * (k - 32)));
+        const double f = std::min(1.0, std::max(0.0, (R + 1.0 - d) / 2.0));
+        v.at(i, j, k) = uint8_t(std::lround(30 + 60 * f + 0.5 * rng.normal()));
+      }
+  REQUIRE(v.finish(VoxelType::U8));
+  SmoothedRoi roi;
+  IntensityModel model;
+  Carved mem([&](Arena& a) {
+    roi.carve(a, int64_t(1) << 19);
+    model.carve(a, IntensityModel::kDefaultSamples);
+  });
+  REQUIRE(mem.ok);
+  int64_t lo[3], hi[3];
+  roi_box_for_ball(v.view, c, 17, lo, hi);  // the ball is a sixth of the crop: a class of the scene
+  REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
+  LutSpec lut;
+  lut.type = VoxelType::U8;
+  IntensityModelSettings ms;
+  REQUIRE(model.fit(roi, c, 5, ms, lut) == ModelStatus::ok);
+  REQUIRE(model.competitors() >= 1);
+  double rival = 0;
+  CHECK(model.rival_mean(30, &rival));
+  CHECK(rival == doctest::Approx(30).epsilon(0.1));
+  CHECK_FALSE(model.rival_mean(90, &rival));
+  CHECK(model.class_mean(85) == doctest::Approx(90).epsilon(0.05));
+
+  const uint32_t nv = 400;
+  std::vector<double> x, nrm, target(3 * nv), plain(3 * nv);
+  std::vector<uint8_t> has(nv), plain_has(nv);
+  // Mean signed distance of the targets from the sphere of radius R.
+  auto offset = [&](const std::vector<double>& t, const std::vector<uint8_t>& h, uint32_t* count) {
+    double sum = 0;
+    *count = 0;
+    for (uint32_t q = 0; q < nv; ++q) {
+      if (!h[q]) continue;
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) d2 += (t[3 * q + a] - c[a]) * (t[3 * q + a] - c[a]);
+      sum += std::sqrt(d2) - R;
+      ++*count;
+    }
+    return *count ? sum / *count : 0.0;
+  };
+  IntensitySearchSettings s;
+  s.range_mm = 12;
+  for (double r0 : {7.0, 15.0}) {  // inside: outward search; outside: inward search
+    CAPTURE(r0);
+    fibonacci(c, r0, nv, &x, &nrm);
+    s.partial_volume = false;
+    search_intensity(roi, model, nv, x.data(), nrm.data(), s, plain.data(), plain_has.data());
+    s.partial_volume = true;
+    search_intensity(roi, model, nv, x.data(), nrm.data(), s, target.data(), has.data());
+    uint32_t n_plain = 0, n_pv = 0;
+    const double off_plain = offset(plain, plain_has, &n_plain), off_pv = offset(target, has, &n_pv);
+    MESSAGE("target offset from R: g crossing " << off_plain << " mm, partial-volume level " << off_pv << " mm");
+    CHECK(n_plain >= nv * 98 / 100);
+    CHECK(n_pv == n_plain);
+    CHECK(off_plain < -0.4);                        // g gives up inside the edge
+    CHECK(std::fabs(off_pv) < 0.15);                // the half-way level is the edge's centre
+    for (uint32_t q = 0; q < nv; ++q) {             // moved away from the object only
+      if (!has[q]) continue;
+      double dp = 0, dv = 0;
+      for (int a = 0; a < 3; ++a) {
+        dp += (plain[3 * q + a] - c[a]) * (plain[3 * q + a] - c[a]);
+        dv += (target[3 * q + a] - c[a]) * (target[3 * q + a] - c[a]);
+      }
+      CHECK(std::sqrt(dv) >= std::sqrt(dp) - 1e-9);
+    }
+  }
+  // Without competing classes there is no class to be half-way to: the
+  // targets stay on the g crossings, bit for bit.
+  ms.scene_competitors = false;
+  REQUIRE(model.fit(roi, c, 5, ms, lut) == ModelStatus::ok);
+  REQUIRE(model.competitors() == 0);
+  fibonacci(c, 7, nv, &x, &nrm);
+  s.partial_volume = false;
+  search_intensity(roi, model, nv, x.data(), nrm.data(), s, plain.data(), plain_has.data());
+  s.partial_volume = true;
+  search_intensity(roi, model, nv, x.data(), nrm.data(), s, target.data(), has.data());
+  CHECK(has == plain_has);
+  CHECK(std::memcmp(target.data(), plain.data(), sizeof(double) * 3 * nv) == 0);
+}
+
 namespace {
 
 // The plain EM (per-sample log-likelihood summed in sample order, the stopping

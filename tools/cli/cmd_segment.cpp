@@ -55,7 +55,7 @@ const ParamField kParamFields[] = {
     FFSEG_PF(smoothing_iterations, true),   FFSEG_PF(bin_min_count, true),
     FFSEG_PF(smoothing_kappa, false),       FFSEG_PF(intensity_gamma, false),
     FFSEG_PF(sigma_floor_fraction, false),  FFSEG_PF(bin_radius, false),
-    FFSEG_PF(bin_separation, false),
+    FFSEG_PF(bin_separation, false),        FFSEG_PF(partial_volume_steps, true),
 };
 #undef FFSEG_PF
 
@@ -336,7 +336,8 @@ const char* const kSegmentUsageText =
     "                          convergence_mm, diffusion_iterations,\n"
     "                          consecutive_background, smoothing_iterations,\n"
     "                          bin_min_count, smoothing_kappa, intensity_gamma,\n"
-    "                          sigma_floor_fraction, bin_radius, bin_separation\n"
+    "                          sigma_floor_fraction, bin_radius, bin_separation,\n"
+    "                          partial_volume_steps\n"
     "                          (units and ranges: include/ffseg.h)\n"
     "  --max-roi-voxels N      engine crop budget per object (default: the voxel\n"
     "                          count, at most 2^26)\n"
