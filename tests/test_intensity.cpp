@@ -563,21 +563,34 @@ TEST_CASE("intensity: search finds a noisy CT ball's boundary from inside (outwa
   }
 }
 
+namespace {
+
+// A 64^3 u8 volume of 1 mm voxels around (32, 32, 32): value(d, i) at voxel
+// (i, j, k), d its distance from the centre, plus Gaussian noise sigma 0.5;
+// returns v.finish().
+template <class F>
+bool fill_u8_around_centre(TestVolume<uint8_t>& v, uint32_t seed, F value) {
+  Rng rng(seed);
+  for (int64_t k = 0; k < 64; ++k)
+    for (int64_t j = 0; j < 64; ++j)
+      for (int64_t i = 0; i < 64; ++i) {
+        const double d = std::sqrt(double((i - 32) * (i - 32) + (j - 32) * (j - 32) + (k - 32) * (k - 32)));
+        v.at(i, j, k) = uint8_t(std::lround(value(d, i) + 0.5 * rng.normal()));
+      }
+  return v.finish(VoxelType::U8);
+}
+
+}  // namespace
+
 TEST_CASE("intensity: on near noise-free data the variance floor lets the search reach the structure's boundary") {
   // Colin27-like (PEERS.md): a u8 ball (radius 15 mm, 1 mm voxels) whose
   // intensity ramps 88..112 across it, in a 160 background with a dark 30 slab
   // nearby; noise sigma 0.5. A 4 mm sphere sees a spread of about 1.4 grey levels.
   TestVolume<uint8_t> v(64, 64, 64, 1, 1, 1);
-  Rng rng(5);
   const double c[3] = {32, 32, 32}, R = 15;
-  for (int64_t k = 0; k < 64; ++k)
-    for (int64_t j = 0; j < 64; ++j)
-      for (int64_t i = 0; i < 64; ++i) {
-        const double d = std::sqrt(double((i - 32) * (i - 32) + (j - 32) * (j - 32) + (k - 32) * (k - 32)));
-        const double val = d <= R ? 100 + 0.8 * (double(i) - 32) : (i < 12 ? 30 : 160);
-        v.at(i, j, k) = uint8_t(std::lround(val + 0.5 * rng.normal()));
-      }
-  REQUIRE(v.finish(VoxelType::U8));
+  REQUIRE(fill_u8_around_centre(v, 5, [&](double d, int64_t i) {
+    return d <= R ? 100 + 0.8 * (double(i) - 32) : (i < 12 ? 30 : 160);
+  }));
   SmoothedRoi roi;
   IntensityModel model;
   Carved mem([&](Arena& a) {
@@ -629,16 +642,9 @@ TEST_CASE("intensity: partial-volume boundaries sit at the half-way level of a b
   // the crop's subsampled mixture came out as a single class, mean 36, and
   // nothing competed: the rule then leaves every target where it is.)
   TestVolume<uint8_t> v(64, 64, 64, 1, 1, 1);
-  Rng rng(11);
   const double c[3] = {32, 32, 32}, R = 12;
-  for (int64_t k = 0; k < 64; ++k)
-    for (int64_t j = 0; j < 64; ++j)
-      for (int64_t i = 0; i < 64; ++i) {
-        const double d = std::sqrt(double((i - 32) * (i - 32) + (j - 32) * (j - 32) + (k - 32) * (k - 32)));
-        const double f = std::min(1.0, std::max(0.0, (R + 1.0 - d) / 2.0));
-        v.at(i, j, k) = uint8_t(std::lround(30 + 60 * f + 0.5 * rng.normal()));
-      }
-  REQUIRE(v.finish(VoxelType::U8));
+  REQUIRE(fill_u8_around_centre(
+      v, 11, [&](double d, int64_t) { return 30 + 60 * std::min(1.0, std::max(0.0, (R + 1.0 - d) / 2.0)); }));
   SmoothedRoi roi;
   IntensityModel model;
   Carved mem([&](Arena& a) {
