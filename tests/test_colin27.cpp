@@ -31,7 +31,8 @@ struct StructureResult {
   ffseg_tools::SegMetrics m{};
   int steps = 0;
   double ms = 0;
-  size_t intersections = 0;
+  size_t intersections = 0;  // worst over the steps (with check_mesh)
+  size_t flips = 0;          // worst over the steps: triangles turned against their neighbours
 };
 
 ffseg_volume volume_of(const ffseg_tools::NiftiImage& img) {
@@ -47,7 +48,8 @@ ffseg_volume volume_of(const ffseg_tools::NiftiImage& img) {
 // Runs one AAL structure; returns metrics against the label.
 StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg_tools::NiftiImage& aal, int label,
                                   const char* name, uint32_t n, int max_steps, double radius_scale = 1,
-                                  const double* shift_mm = nullptr) {
+                                  const double* shift_mm = nullptr, bool check_mesh = false,
+                                  int partial_volume_steps = -1) {
   StructureResult res;
   res.label = label;
   res.name = name;
@@ -82,16 +84,28 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
   if (const char* e = std::getenv("FFSEG_LP")) p.lambda_position = std::atof(e);
   if (const char* e = std::getenv("FFSEG_TAU")) p.flip_tau = std::atof(e);
   if (const char* e = std::getenv("FFSEG_CONV")) p.convergence_mm = std::atof(e);
+  if (const char* e = std::getenv("FFSEG_PVS")) p.partial_volume_steps = uint32_t(std::atoi(e));
+  if (partial_volume_steps >= 0) p.partial_volume_steps = uint32_t(partial_volume_steps);
   REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
   ffseg_volume v = volume_of(t1);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
   REQUIRE(ffseg_init_sphere(eb.e, 0, c, depth / 2) == FFSEG_OK);
-  const auto t0 = std::chrono::steady_clock::now();
   ffseg_step_info info;
   info.struct_size = sizeof info;
+  std::vector<float> xyz;
+  std::vector<uint32_t> tris;
   for (int s = 0; s < max_steps; ++s) {
+    const auto t0 = std::chrono::steady_clock::now();  // ms: the step calls only
     const ffseg_status st = ffseg_step(eb.e, &info);
+    res.ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     INFO(ffseg_last_error(eb.e));
+    if (check_mesh && st >= 0) {
+      REQUIRE(ffseg_test::extract(eb.e, 0, &xyz, &tris));
+      const auto rep = ffseg_test::check_self_intersections(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3);
+      res.intersections = std::max(res.intersections, rep.disjoint_pairs + rep.shared_vertex_pairs);
+      res.flips = std::max(res.flips, ffseg_test::count_normal_flips(xyz.data(), xyz.size() / 3, tris.data(),
+                                                                     tris.size() / 3, -0.5));
+    }
     REQUIRE(st >= 0);
     res.steps = s + 1;
     if (std::getenv("FFSEG_STEPS"))
@@ -99,7 +113,6 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
                   info.vertices_with_target[0], info.flips_avoided[0], info.intersections_avoided[0], (unsigned long long)info.stage_us[8], (unsigned long long)info.stage_us[7]);
     if (st == FFSEG_CONVERGED) break;
   }
-  res.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::vector<uint8_t> mask(N);
   REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
   res.m = ffseg_tools::compare_masks(mask.data(), truth.data(), aal.dims, aal.spacing);
@@ -258,10 +271,35 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
   std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
     CAPTURE(c.name);
-    const StructureResult r = segment_structure(t1, aal, c.label, c.name, 12, 100);
+    const StructureResult r = segment_structure(t1, aal, c.label, c.name, 12, 100, 1, nullptr, true);
     std::printf("| %s | %d | %.3f | %.3f | %.2f | %.2f | %d | %.0f |\n", r.name, r.label, r.m.dice, r.m.voe, r.m.assd_mm,
                 r.m.hd95_mm, r.steps, r.ms);
     CHECK(r.m.dice >= c.dice_floor);
     CHECK(r.m.assd_mm <= c.assd_ceiling);
+    CHECK(r.intersections == 0);  // after every step
+    CHECK(r.flips == 0);
+  }
+}
+
+TEST_CASE("chapter 5 on Colin27: partial-volume steps come after the first rest, at most partial_volume_steps of them") {
+  // Putamen L (n = 12): without them the mesh rests on the g crossings and
+  // converges there; with k of them the run is the same up to that rest, then
+  // at most k steps more (here each of them still moves more than
+  // convergence_mm, so exactly k), and the boundaries move outwards.
+  ffseg_tools::NiftiImage t1, aal;
+  std::string err;
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kAal, &aal, &err), err);
+  const StructureResult off = segment_structure(t1, aal, 73, "putamen L", 12, 100, 1, nullptr, false, 0);
+  for (int k : {1, 2, 4}) {
+    CAPTURE(k);
+    const StructureResult r = segment_structure(t1, aal, 73, "putamen L", 12, 100, 1, nullptr, k == 4, k);
+    MESSAGE("steps " << off.steps << " -> " << r.steps << ", " << off.m.vol_a_ml << " -> " << r.m.vol_a_ml << " ml");
+    CHECK(r.steps > off.steps);
+    CHECK(r.steps <= off.steps + k);
+    CHECK(r.steps == off.steps + k);
+    CHECK(r.m.vol_a_ml > off.m.vol_a_ml);
+    CHECK(r.intersections == 0);
+    CHECK(r.flips == 0);
   }
 }

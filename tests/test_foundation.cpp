@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstddef>
 #include <cstring>
 #include <map>
 #include <set>
@@ -257,6 +258,14 @@ TEST_CASE("config and params are validated, struct_size honoured") {
   q.flip_tau = NAN;
   CHECK(ffseg_set_params(eb.e, &q) == FFSEG_ERR_INVALID_ARGUMENT);
   CHECK(std::strstr(ffseg_last_error(eb.e), "flip_tau") != nullptr);
+  q = p;
+  q.partial_volume_steps = 1001;
+  CHECK(ffseg_set_params(eb.e, &q) == FFSEG_ERR_INVALID_ARGUMENT);
+  CHECK(std::strstr(ffseg_last_error(eb.e), "partial_volume_steps") != nullptr);
+  // A caller built against the layout before partial_volume_steps: the field
+  // lies beyond its struct_size, is not read and keeps its default.
+  q.struct_size = uint32_t(offsetof(ffseg_params, partial_volume_steps));
+  CHECK(ffseg_set_params(eb.e, &q) == FFSEG_OK);
   q = p;
   q.struct_size = 4;
   CHECK(ffseg_set_params(eb.e, &q) == FFSEG_ERR_STRUCT_SIZE);
