@@ -95,12 +95,12 @@ struct Object {
   // (intensity_search.h) for at most Params::partial_volume_steps steps.
   bool refining = false;
   uint32_t refine_steps = 0;
+  bool converged = false;  // at rest for good: later steps leave it where it is
   void restart() {  // move again from where it is
     converged = false;
     refining = false;
     refine_steps = 0;
   }
-  bool converged = false;  // at rest for good: later steps leave it where it is
 };
 
 enum Stage : int {

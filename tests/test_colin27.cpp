@@ -46,10 +46,15 @@ ffseg_volume volume_of(const ffseg_tools::NiftiImage& img) {
 }  // namespace
 
 // Runs one AAL structure; returns metrics against the label.
+struct RunOptions {
+  double radius_scale = 1;
+  const double* shift_mm = nullptr;   // sphere centre moved by this (mm)
+  bool check_mesh = false;            // self-intersections and flips after every step
+  int partial_volume_steps = -1;      // >= 0: instead of the default
+};
+
 StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg_tools::NiftiImage& aal, int label,
-                                  const char* name, uint32_t n, int max_steps, double radius_scale = 1,
-                                  const double* shift_mm = nullptr, bool check_mesh = false,
-                                  int partial_volume_steps = -1) {
+                                  const char* name, uint32_t n, int max_steps, const RunOptions& o = RunOptions()) {
   StructureResult res;
   res.label = label;
   res.name = name;
@@ -63,9 +68,9 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
   for (int r = 0; r < 3; ++r)
     c[r] = t1.index_to_world[4 * r] * ijk[0] + t1.index_to_world[4 * r + 1] * ijk[1] + t1.index_to_world[4 * r + 2] * ijk[2] +
            t1.index_to_world[4 * r + 3];
-  if (shift_mm)
-    for (int r = 0; r < 3; ++r) c[r] += shift_mm[r];
-  depth *= radius_scale;
+  if (o.shift_mm)
+    for (int r = 0; r < 3; ++r) c[r] += o.shift_mm[r];
+  depth *= o.radius_scale;
   if (std::getenv("FFSEG_VERBOSE")) std::printf("label %d: centre %.1f,%.1f,%.1f radius %.2f\n", label, c[0], c[1], c[2], depth / 2);
   EngineBox eb(1, n, int64_t(1) << 23);
   REQUIRE(eb.e != nullptr);
@@ -85,27 +90,20 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
   if (const char* e = std::getenv("FFSEG_TAU")) p.flip_tau = std::atof(e);
   if (const char* e = std::getenv("FFSEG_CONV")) p.convergence_mm = std::atof(e);
   if (const char* e = std::getenv("FFSEG_PVS")) p.partial_volume_steps = uint32_t(std::atoi(e));
-  if (partial_volume_steps >= 0) p.partial_volume_steps = uint32_t(partial_volume_steps);
+  if (o.partial_volume_steps >= 0) p.partial_volume_steps = uint32_t(o.partial_volume_steps);
   REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
   ffseg_volume v = volume_of(t1);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
   REQUIRE(ffseg_init_sphere(eb.e, 0, c, depth / 2) == FFSEG_OK);
   ffseg_step_info info;
   info.struct_size = sizeof info;
-  std::vector<float> xyz;
-  std::vector<uint32_t> tris;
+  ffseg_test::MeshWatch watch;
   for (int s = 0; s < max_steps; ++s) {
     const auto t0 = std::chrono::steady_clock::now();  // ms: the step calls only
     const ffseg_status st = ffseg_step(eb.e, &info);
     res.ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     INFO(ffseg_last_error(eb.e));
-    if (check_mesh && st >= 0) {
-      REQUIRE(ffseg_test::extract(eb.e, 0, &xyz, &tris));
-      const auto rep = ffseg_test::check_self_intersections(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3);
-      res.intersections = std::max(res.intersections, rep.disjoint_pairs + rep.shared_vertex_pairs);
-      res.flips = std::max(res.flips, ffseg_test::count_normal_flips(xyz.data(), xyz.size() / 3, tris.data(),
-                                                                     tris.size() / 3, -0.5));
-    }
+    if (o.check_mesh && st >= 0) REQUIRE(watch.look(eb.e, 0));
     REQUIRE(st >= 0);
     res.steps = s + 1;
     if (std::getenv("FFSEG_STEPS"))
@@ -113,6 +111,8 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
                   info.vertices_with_target[0], info.flips_avoided[0], info.intersections_avoided[0], (unsigned long long)info.stage_us[8], (unsigned long long)info.stage_us[7]);
     if (st == FFSEG_CONVERGED) break;
   }
+  res.intersections = watch.intersections;
+  res.flips = watch.flips;
   std::vector<uint8_t> mask(N);
   REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
   res.m = ffseg_tools::compare_masks(mask.data(), truth.data(), aal.dims, aal.spacing);
@@ -144,8 +144,10 @@ TEST_CASE("colin27 experiment" * doctest::skip()) {
       acc.ms = 0;
       acc.steps = 0;
       for (int k = 0; k < 6; ++k) {
-        const StructureResult q = segment_structure(t1, aal, st.first, st.second, n, 100, scales[k % 3],
-                                                    k < 3 ? nullptr : shift);
+        RunOptions ro;
+        ro.radius_scale = scales[k % 3];
+        ro.shift_mm = k < 3 ? nullptr : shift;
+        const StructureResult q = segment_structure(t1, aal, st.first, st.second, n, 100, ro);
         acc.m.dice += q.m.dice / 6;
         acc.m.assd_mm += q.m.assd_mm / 6;
         acc.m.vol_a_ml += q.m.vol_a_ml / 6;
@@ -197,18 +199,15 @@ TEST_CASE("chapter 4 on a real shape: the Colin27 brain mask (ch2bet), n = 49, D
   ffseg_volume v = volume_of(bet);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
   REQUIRE(ffseg_init_sphere(eb.e, 0, c, radius) == FFSEG_OK);
-  std::vector<float> xyz;
-  std::vector<uint32_t> tris;
+  ffseg_test::MeshWatch watch;
+  const std::vector<float>& xyz = watch.xyz;
+  const std::vector<uint32_t>& tris = watch.tris;
   int steps = 0;
-  size_t worst = 0, worst_flips = 0;
   for (; steps < 150; ++steps) {
     const ffseg_status st = ffseg_step(eb.e, nullptr);
     REQUIRE(st >= 0);
-    REQUIRE(ffseg_test::extract(eb.e, 0, &xyz, &tris));
-    const auto rep = ffseg_test::check_self_intersections(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3);
-    worst = std::max(worst, rep.disjoint_pairs + rep.shared_vertex_pairs);
-    const size_t fl = ffseg_test::count_normal_flips(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3, -0.5);
-    if (fl && std::getenv("FFSEG_DUMP")) {
+    REQUIRE(watch.look(eb.e, 0));
+    if (watch.last_flips && std::getenv("FFSEG_DUMP")) {
       FILE* f = std::fopen(std::getenv("FFSEG_DUMP"), "w");
       std::fprintf(f, "%zu %zu\n", xyz.size() / 3, tris.size() / 3);
       for (size_t i = 0; i < xyz.size() / 3; ++i) std::fprintf(f, "%g %g %g\n", xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
@@ -216,17 +215,16 @@ TEST_CASE("chapter 4 on a real shape: the Colin27 brain mask (ch2bet), n = 49, D
       std::fclose(f);
       std::printf("flip at step %d\n", steps + 1);
     }
-    worst_flips = std::max(worst_flips, fl);
     if (st == FFSEG_CONVERGED) { ++steps; break; }
   }
   std::vector<uint8_t> mask(N);
   REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
   const ffseg_tools::SegMetrics m = ffseg_tools::compare_masks(mask.data(), truth.data(), bet.dims, bet.spacing);
   std::printf("ch2bet brain mask, n=49: Dice %.4f ASSD %.2f mm HD95 %.2f mm, %d steps, worst intersections %zu, flips %zu\n",
-              m.dice, m.assd_mm, m.hd95_mm, steps, worst, worst_flips);
+              m.dice, m.assd_mm, m.hd95_mm, steps, watch.intersections, watch.flips);
   CHECK(m.dice >= 0.93);
-  CHECK(worst == 0);
-  CHECK(worst_flips == 0);
+  CHECK(watch.intersections == 0);
+  CHECK(watch.flips == 0);
 }
 
 TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, floors on Dice and ASSD") {
@@ -271,7 +269,9 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
   std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
     CAPTURE(c.name);
-    const StructureResult r = segment_structure(t1, aal, c.label, c.name, 12, 100, 1, nullptr, true);
+    RunOptions ro;
+    ro.check_mesh = true;
+    const StructureResult r = segment_structure(t1, aal, c.label, c.name, 12, 100, ro);
     std::printf("| %s | %d | %.3f | %.3f | %.2f | %.2f | %d | %.0f |\n", r.name, r.label, r.m.dice, r.m.voe, r.m.assd_mm,
                 r.m.hd95_mm, r.steps, r.ms);
     CHECK(r.m.dice >= c.dice_floor);
@@ -290,10 +290,14 @@ TEST_CASE("chapter 5 on Colin27: partial-volume steps come after the first rest,
   std::string err;
   REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
   REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kAal, &aal, &err), err);
-  const StructureResult off = segment_structure(t1, aal, 73, "putamen L", 12, 100, 1, nullptr, false, 0);
+  RunOptions ro;
+  ro.partial_volume_steps = 0;
+  const StructureResult off = segment_structure(t1, aal, 73, "putamen L", 12, 100, ro);
   for (int k : {1, 2, 4}) {
     CAPTURE(k);
-    const StructureResult r = segment_structure(t1, aal, 73, "putamen L", 12, 100, 1, nullptr, k == 4, k);
+    ro.partial_volume_steps = k;
+    ro.check_mesh = k == 4;
+    const StructureResult r = segment_structure(t1, aal, 73, "putamen L", 12, 100, ro);
     MESSAGE("steps " << off.steps << " -> " << r.steps << ", " << off.m.vol_a_ml << " -> " << r.m.vol_a_ml << " ml");
     CHECK(r.steps > off.steps);
     CHECK(r.steps <= off.steps + k);

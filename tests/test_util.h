@@ -93,6 +93,19 @@ inline bool extract(ffseg_engine* e, uint32_t object, std::vector<float>* xyz, s
 
 void triangles_of(const ffseg::CubeSphere& m, uint32_t* tris);
 
+// The worst mesh defects over the meshes it is shown (after each step): pairs
+// of crossing triangles (disjoint or sharing one vertex, mesh_check.h) and
+// normal flips (neighbouring triangles with cos < -0.5). xyz and tris keep the
+// last mesh extracted.
+struct MeshWatch {
+  size_t intersections = 0, flips = 0;
+  size_t last_flips = 0;  // of the last mesh
+  std::vector<float> xyz;
+  std::vector<uint32_t> tris;
+  // Extracts `object`'s mesh and counts its defects; false if extraction failed.
+  bool look(ffseg_engine* e, uint32_t object);
+};
+
 template <class P>
 double signed_volume(const P* xyz, const std::vector<uint32_t>& tris) {
   double v = 0;
