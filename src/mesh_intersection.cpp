@@ -35,6 +35,7 @@ void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
   face_flags = a.alloc<uint8_t>(m.nfaces);
   vertex_flags = a.alloc<uint8_t>(m.nv);
   vertex_marks = a.alloc<uint8_t>(m.nv);
+  vertex_pending = a.alloc<uint8_t>(m.nv);
   face_n_old = a.alloc<double>(size_t(6) * m.nfaces);
   face_n_new = a.alloc<double>(size_t(6) * m.nfaces);
   face_alt_old = a.alloc<uint8_t>(m.nfaces);

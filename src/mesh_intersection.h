@@ -44,6 +44,7 @@ struct TriangleScratch {
   uint8_t* face_flags = nullptr;
   uint8_t* vertex_flags = nullptr;
   uint8_t* vertex_marks = nullptr;
+  uint8_t* vertex_pending = nullptr;  // moved since the guard's last intersection test
   // For the step guard's fold test: per face, the normals of its triangles
   // (3 each, face_triangles() order) as split at the old positions and
   // computed there, and as split and computed at the tested positions, and

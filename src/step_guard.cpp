@@ -285,13 +285,13 @@ void blend(size_t nv, const double* x_old, const double* x_new, double g, const 
   }
 }
 
-// Marks (ts.vertex_marks) and counts every offence and intersection at xs,
-// the guard's local rounds' test. moved == nullptr: from scratch; otherwise xs
-// differs from the previous call's positions only at the vertices with
-// moved[v] != 0, and only the faces and triangles around them are tested
-// again (ts.face_flags keeps each face's offences).
-uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, const uint8_t* moved,
-                  TriangleScratch& ts) {
+// Marks (ts.vertex_marks) and counts every offence (turn or fold) at xs.
+// moved == nullptr: from scratch; otherwise xs differs from the previous
+// call's positions only at the vertices with moved[v] != 0, and only the
+// faces around them are tested again (ts.face_flags keeps each face's
+// offences).
+uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* xs, const uint8_t* moved,
+                        TriangleScratch& ts) {
   uint8_t* flags = ts.face_flags;
   if (!moved) {
     for (uint32_t f = 0; f < m.nfaces; ++f) cache_face(m, f, xs, ts.face_n_new, ts.face_alt_new);
@@ -325,7 +325,28 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
   uint32_t count = 0;
   for (uint32_t f = 0; f < m.nfaces; ++f)
     if (flags[f]) count += mark_offences(m, f, flags[f], x_old, mark, false);
-  return count + mark_intersections_tracked(m, xs, ts, mark, moved, ts.face_alt_new);
+  return count;
+}
+
+// The guard's local rounds' test at xs (moved as for mark_offending): the
+// offences, and only when there are none, the intersections too (marked in
+// ts.vertex_marks as well). Folds first: while a round still folds, the
+// next round halves around the folds anyway, and the intersection test
+// (most of a round's cost) waits; ts.vertex_pending gathers the vertices
+// moved since it last ran, so that it goes on from its tracked pairs. *tracked:
+// whether it has run in this guard call (then incrementally).
+uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, const uint8_t* moved,
+                  TriangleScratch& ts, bool* tracked) {
+  const uint32_t count = mark_offending(m, x_old, xs, moved, ts);
+  uint8_t* pending = ts.vertex_pending;
+  if (moved)
+    for (size_t v = 0; v < m.nv; ++v) pending[v] |= moved[v];
+  if (count > 0) return count;
+  const uint32_t pairs =
+      mark_intersections_tracked(m, xs, ts, ts.vertex_marks, *tracked ? pending : nullptr, ts.face_alt_new);
+  *tracked = true;
+  for (size_t v = 0; v < m.nv; ++v) pending[v] = 0;
+  return pairs;
 }
 
 }  // namespace
@@ -372,8 +393,11 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // Each round's test of its new positions also gives the next round's marks
   // (ts.vertex_marks); the first round marks from scratch.
   uint8_t* moved = ts.vertex_flags;
+  bool tracked = false;
+  if (!clean)
+    for (size_t v = 0; v < nv; ++v) ts.vertex_pending[v] = 0;
   for (int round = 0; round < kLocalRounds && !clean; ++round) {
-    if (round == 0) mark_all(m, x_old, xs, nullptr, ts);
+    if (round == 0) mark_all(m, x_old, xs, nullptr, ts, &tracked);
     for (size_t v = 0; v < nv; ++v) mark[v] = ts.vertex_marks[v];
     for (size_t v = 0; v < nv; ++v) {
       grow[v] = mark[v];
@@ -388,7 +412,7 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
       for (size_t v = nv; v-- > 0;) relax(m, share, v);
     }
     blend(nv, x_old, x_new, 1.0, share, xs, moved);
-    clean = mark_all(m, x_old, xs, moved, ts) == 0;
+    clean = mark_all(m, x_old, xs, moved, ts, &tracked) == 0;
   }
   double g = 1.0;
   for (int h = 0; !clean; ++h) {
