@@ -582,6 +582,157 @@ EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io
 
 }  // namespace
 
+namespace {
+
+// EM over weighted points (IntensityModel::compress): point j stands for
+// w[j] samples with mean v[j] (shifted by the caller) and sum of squares
+// ss[j] about v[j]. The same iteration as em_fit_impl, each point's
+// responsibilities taken at its mean: Z_i += w z_i, Zx_i += w z_i v,
+// Zxx_i += z_i (w v^2 + ss), so every component's first and second moments
+// are exact where a point's samples share its responsibilities. Same start,
+// variance floor, dropping rule and stopping test (plain sums).
+void em_fit_weighted(const double* v, const double* w, const double* ss, uint32_t np, Gaussian1* comp,
+                     uint32_t* m_io, uint32_t max_iterations, double var_floor, double tol) {
+  uint32_t m = *m_io;
+  if (np == 0 || m == 0) return;
+  double nf = 0, lo = INFINITY, hi = -INFINITY;
+  for (uint32_t j = 0; j < np; ++j) {
+    nf += w[j];
+    lo = std::min(lo, v[j]);
+    hi = std::max(hi, v[j]);
+  }
+  if (!(nf > 0)) return;
+  const double scale = hi > lo ? hi - lo : 1.0;
+  const double vmin = std::max(var_floor, 1e-12 * scale * scale);
+  constexpr uint32_t M = IntensityModel::kMaxComponents;
+  double a[M], mu[M], var[M];
+  for (uint32_t i = 0; i < m; ++i) {
+    a[i] = comp[i].weight > 0 ? comp[i].weight : 1.0 / m;
+    mu[i] = comp[i].mean;
+    var[i] = std::max(comp[i].var, vmin);
+  }
+  constexpr uint32_t kBlock = 64;
+  double ev[M * kBlock], mx[kBlock];
+  double ll_prev = -INFINITY;
+  for (uint32_t it = 1; it <= max_iterations; ++it) {
+    double la[M], ih[M], Z[M] = {}, Zx[M] = {}, Zxx[M] = {};
+    for (uint32_t i = 0; i < m; ++i) {
+      la[i] = std::log(a[i]) - 0.5 * std::log(var[i]);
+      ih[i] = 0.5 / var[i];
+    }
+    double ll = 0;
+    for (uint32_t j0 = 0; j0 < np; j0 += kBlock) {
+      const uint32_t nb = np - j0 < kBlock ? np - j0 : kBlock;
+      for (uint32_t b = 0; b < nb; ++b) {
+        const double x = v[j0 + b];
+        double top = -INFINITY;
+        for (uint32_t i = 0; i < m; ++i) {
+          const double d = x - mu[i];
+          const double l = la[i] - d * d * ih[i];
+          ev[i * kBlock + b] = l;
+          top = l > top ? l : top;
+        }
+        mx[b] = top;
+        for (uint32_t i = 0; i < m; ++i) ev[i * kBlock + b] -= top;
+      }
+      for (uint32_t i = 0; i < m; ++i) exp_block(ev + i * kBlock, nb);
+      for (uint32_t b = 0; b < nb; ++b) {
+        const uint32_t j = j0 + b;
+        double sum = 0;
+        for (uint32_t i = 0; i < m; ++i) sum += ev[i * kBlock + b];
+        ll += w[j] * (mx[b] + std::log(sum));
+        const double inv = 1.0 / sum, x = v[j], wx = w[j] * x, second = wx * x + ss[j];
+        for (uint32_t i = 0; i < m; ++i) {
+          const double z = ev[i * kBlock + b] * inv;
+          Z[i] += w[j] * z;
+          Zx[i] += z * wx;
+          Zxx[i] += z * second;
+        }
+      }
+    }
+    ll /= nf;
+    uint32_t k = 0;
+    for (uint32_t i = 0; i < m; ++i) {
+      if (Z[i] < 1e-4 * nf) continue;
+      a[k] = Z[i] / nf;
+      mu[k] = Zx[i] / Z[i];
+      var[k] = std::max(Zxx[i] / Z[i] - mu[k] * mu[k], vmin);
+      ++k;
+    }
+    if (k == 0) break;
+    if (k < m) {
+      double t = 0;
+      for (uint32_t i = 0; i < k; ++i) t += a[i];
+      for (uint32_t i = 0; i < k; ++i) a[i] /= t;
+      m = k;
+    }
+    if (it > 1 && ll - ll_prev < tol) break;
+    ll_prev = ll;
+  }
+  for (uint32_t i = 0; i < m; ++i) {
+    comp[i].weight = a[i];
+    comp[i].mean = mu[i];
+    comp[i].var = var[i];
+  }
+  *m_io = m;
+}
+
+}  // namespace
+
+uint32_t IntensityModel::compress(const float* x, uint32_t n, double shift, double width, double* v, double* w,
+                                  double* ss) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (uint32_t j = 0; j < n; ++j)
+    if (std::isfinite(x[j])) {
+      lo = std::min(lo, double(x[j]));
+      hi = std::max(hi, double(x[j]));
+    }
+  if (!(lo <= hi)) return 0;
+  double h = width;
+  if (!(h > 0) || !std::isfinite(h) || (hi - lo) / h >= double(kCompressBins - 1)) h = (hi - lo) / (kCompressBins - 1);
+  const uint32_t nb = h > 0 ? uint32_t((hi - lo) / h) + 1 : 1;
+  for (uint32_t b = 0; b < nb; ++b) v[b] = w[b] = ss[b] = 0;
+  for (uint32_t j = 0; j < n; ++j) {
+    if (!std::isfinite(x[j])) continue;
+    uint32_t b = h > 0 ? uint32_t((double(x[j]) - lo) / h) : 0;
+    if (b >= nb) b = nb - 1;
+    const double d = double(x[j]) - shift;
+    w[b] += 1;
+    v[b] += d;
+    ss[b] += d * d;
+  }
+  // Non-empty bins, in order: mean and sum of squares about it.
+  uint32_t k = 0;
+  for (uint32_t b = 0; b < nb; ++b) {
+    if (w[b] == 0) continue;
+    const double mean = v[b] / w[b];
+    const double q = ss[b] - w[b] * mean * mean;
+    v[k] = mean;
+    w[k] = w[b];
+    ss[k] = q > 0 ? q : 0;
+    ++k;
+  }
+  return k;
+}
+
+uint32_t em_fit_compressed(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations,
+                           double var_floor, double width, double* hist, double tol) {
+  double mean = 0;
+  uint32_t nf = 0;
+  for (uint32_t j = 0; j < n; ++j)
+    if (std::isfinite(x[j])) mean += x[j], ++nf;
+  if (nf == 0 || *m == 0) return 0;
+  mean /= nf;
+  double* hv = hist;
+  double* hw = hist + IntensityModel::kCompressBins;
+  double* hs = hist + 2 * size_t(IntensityModel::kCompressBins);
+  const uint32_t np = IntensityModel::compress(x, n, mean, width, hv, hw, hs);
+  for (uint32_t i = 0; i < *m; ++i) comp[i].mean -= mean;
+  em_fit_weighted(hv, hw, hs, np, comp, m, max_iterations, var_floor, tol);
+  for (uint32_t i = 0; i < *m; ++i) comp[i].mean += mean;
+  return np;
+}
+
 EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
                 double var_floor, double tol) {
   return em_fit_impl(x, n, comp, m_io, max_iterations, var_floor, tol, true);
@@ -590,6 +741,7 @@ EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uin
 void IntensityModel::carve(Arena& a, uint32_t max_samples) {
   cap_ = max_samples;
   samples_ = a.alloc<float>(max_samples);
+  hist_ = a.alloc<double>(size_t(3) * kCompressBins);
   lut_ = a.alloc<float>(kLutMax);
   reset();
 }
@@ -701,7 +853,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   sm2 /= ns;
   Gaussian1 scene[kMaxComponents];
   uint32_t scene_bins = 0;
-  const uint32_t sm = fit_mixture(samples_, ns, smean, sm2, floor, s, scene, &scene_bins);
+  const uint32_t sm = fit_mixture(samples_, ns, smean, sm2, floor, s, scene, &scene_bins, hist_);
   // The object's classes: the scene components that claim (highest weighted
   // density) the mean of some object component. The others compete.
   bool own[kMaxComponents] = {};
@@ -751,7 +903,8 @@ ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma
 }
 
 uint32_t IntensityModel::fit_mixture(const float* x, uint32_t n, double mean, double m2, double sigma_floor,
-                                     const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found) {
+                                     const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found,
+                                     double* hist) {
   const double sd = std::sqrt(m2);
   // The scale of the automatic R and S: the floor, else the samples' spread.
   const double ref = sigma_floor > 0 ? sigma_floor : (sd > 0 ? sd : 1.0);
@@ -778,7 +931,12 @@ uint32_t IntensityModel::fit_mixture(const float* x, uint32_t n, double mean, do
       comp[i].var = std::max(bins[i].var, vfloor);
     }
   }
-  em_fit_impl(x, n, comp, &m, s.em_iterations, vfloor, 1e-9, false);
+  if (hist && n > kCompressAbove) {
+    // Many samples (the scene): EM over bins a 32nd of the floor wide.
+    em_fit_compressed(x, n, comp, &m, s.em_iterations, vfloor, ref / kBinsPerSigma, hist, 1e-9);
+  } else {
+    em_fit_impl(x, n, comp, &m, s.em_iterations, vfloor, 1e-9, false);
+  }
   return m;
 }
 

@@ -116,6 +116,14 @@ struct EmResult {
 EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations, double var_floor,
                 double tol = 1e-9);
 
+// The same fit over the finite samples binned `width` wide (see
+// IntensityModel::compress; hist: 3 IntensityModel::kCompressBins doubles):
+// each bin counts as its samples' mean with their weight and spread, so the
+// E-step costs the non-empty bins, not the samples. Plain log-likelihood
+// sums. Returns the number of non-empty bins.
+uint32_t em_fit_compressed(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations,
+                           double var_floor, double width, double* hist, double tol = 1e-9);
+
 struct IntensityModelSettings {
   double bin_radius = 0;              // R, intensity units; 0: 2 sigma_floor
   double bin_separation = 0;          // S, intensity units; 0: 4 sigma_floor
@@ -192,11 +200,29 @@ class IntensityModel {
  private:
   double density(double v) const;  // sum_i a_i f_i(v) * sqrt(2 pi)
   // Algorithm 2 + EM over x (mean, m2: the samples' mean and variance) into comp; returns m.
+  // hist (3 kCompressBins doubles, may be nullptr): with more than
+  // kCompressAbove samples, EM runs over the samples binned kBinsPerSigma
+  // to the floor (see compress) instead of sample by sample.
   static uint32_t fit_mixture(const float* x, uint32_t n, double mean, double m2, double sigma_floor,
-                              const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found);
+                              const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found,
+                              double* hist = nullptr);
+
+ public:
+  static constexpr uint32_t kCompressBins = 4096;
+  static constexpr uint32_t kCompressAbove = 4096;
+  static constexpr double kBinsPerSigma = 32;
+  // The finite samples of x in bins of the given width (wider when more than
+  // kCompressBins would be needed) from their minimum: per non-empty bin, in
+  // order, the mean less shift (v), the count (w) and the sum of squares
+  // about the mean (ss). Returns the number of non-empty bins.
+  static uint32_t compress(const float* x, uint32_t n, double shift, double width, double* v, double* w,
+                           double* ss);
+
+ private:
   void normalise_and_tabulate(const LutSpec& lut);
 
   float* samples_ = nullptr;
+  double* hist_ = nullptr;  // 3 kCompressBins: the scene fit's binned samples
   float* lut_ = nullptr;
   uint32_t cap_ = 0;
   uint32_t n_ = 0;

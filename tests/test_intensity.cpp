@@ -408,6 +408,70 @@ TEST_CASE("EM: recovers the means, variances and weights of known mixtures") {
   }
 }
 
+TEST_CASE("EM over binned samples (the scene fit) agrees with EM over the samples; the bins keep count and moments") {
+  const uint32_t n = 16384;
+  auto x = mixture_samples(n, {{0.3, 40, 16}, {0.5, 80, 25}, {0.2, 130, 49}}, 31);
+  x[17] = NAN;  // non-finite samples are skipped by both
+  x[900] = INFINITY;
+  std::vector<double> hist(3 * size_t(IntensityModel::kCompressBins));
+  {
+    // The bins: every finite sample counted once, means and sums of squares
+    // giving back the samples' first and second moments.
+    const double shift = 80, width = 0.2;
+    double* v = hist.data();
+    double* w = v + IntensityModel::kCompressBins;
+    double* ss = w + IntensityModel::kCompressBins;
+    const uint32_t nb = IntensityModel::compress(x.data(), n, shift, width, v, w, ss);
+    REQUIRE(nb > 100);
+    REQUIRE(nb <= IntensityModel::kCompressBins);
+    double count = 0, s1 = 0, s2 = 0, e1 = 0, e2 = 0;
+    for (uint32_t b = 0; b < nb; ++b) {
+      count += w[b];
+      s1 += w[b] * v[b];
+      s2 += w[b] * v[b] * v[b] + ss[b];
+      CHECK(ss[b] >= 0);
+      CHECK(ss[b] <= w[b] * width * width / 4 + 1e-9);  // the spread of a bin's samples about their mean
+      if (b) CHECK(v[b] > v[b - 1]);
+    }
+    for (uint32_t j = 0; j < n; ++j)
+      if (std::isfinite(x[j])) e1 += x[j] - shift, e2 += (x[j] - shift) * (x[j] - shift);
+    CHECK(count == n - 2);
+    CHECK(s1 == doctest::Approx(e1).epsilon(1e-9));
+    CHECK(s2 == doctest::Approx(e2).epsilon(1e-9));
+    // Too fine a width for the bins there are: wider bins, all samples kept.
+    const uint32_t nc = IntensityModel::compress(x.data(), n, shift, 1e-6, v, w, ss);
+    double c2 = 0;
+    for (uint32_t b = 0; b < nc; ++b) c2 += w[b];
+    CHECK(nc <= IntensityModel::kCompressBins);
+    CHECK(c2 == n - 2);
+  }
+  // EM from the same start, 200 iterations, a floor of sd 3: bins a 32nd of
+  // the floor wide move no parameter by more than a thousandth of the floor.
+  const Gaussian1 start[3] = {{0.3, 35, 30}, {0.4, 85, 30}, {0.3, 120, 30}};
+  Gaussian1 a[3] = {start[0], start[1], start[2]}, b[3] = {start[0], start[1], start[2]};
+  uint32_t ma = 3, mb = 3;
+  em_fit(x.data(), n, a, &ma, 200, 9.0);
+  const uint32_t nb = em_fit_compressed(x.data(), n, b, &mb, 200, 9.0, 3.0 / 32, hist.data());
+  CHECK(nb < n / 4);
+  REQUIRE(ma == 3);
+  REQUIRE(mb == 3);
+  for (int i = 0; i < 3; ++i) {
+    CHECK(std::fabs(a[i].mean - b[i].mean) < 3e-3);
+    CHECK(std::fabs(a[i].var - b[i].var) < 9e-3 * a[i].var);
+    CHECK(std::fabs(a[i].weight - b[i].weight) < 1e-4);
+  }
+  CHECK(b[1].mean == doctest::Approx(80).epsilon(0.01));
+  // Bins as wide as the gaps between the classes do move them (keeping each
+  // bin's spread makes bins up to a few floors wide nearly as good): the
+  // comparison can tell.
+  Gaussian1 c[3] = {start[0], start[1], start[2]};
+  uint32_t mc = 3;
+  em_fit_compressed(x.data(), n, c, &mc, 200, 9.0, 30.0, hist.data());
+  double worst = 0;
+  for (uint32_t i = 0; i < mc && i < 3; ++i) worst = std::max(worst, std::fabs(c[i].var - a[i].var) / a[i].var);
+  CHECK(worst > 9e-3);
+}
+
 TEST_CASE("intensity: the lookup table gives the direct g (u8, i16 with rescale)") {
   IntensityModel model;
   Carved mem([&](Arena& a) { model.carve(a, 16); });
