@@ -462,6 +462,32 @@ uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, 
 
 namespace {
 
+// M-step (eq. 5.2.5-5.2.7; 5.2.7 is the variance) from the E-step's sums
+// over nf samples, variances floored at vmin; a component that lost its
+// samples (Z < 1e-4 nf) is dropped and the weights renormalised (*m
+// shrinks). False, parameters untouched, when every component would go.
+bool m_step(const double* Z, const double* Zx, const double* Zxx, double nf, double vmin, double* a, double* mu,
+            double* v, uint32_t* m) {
+  uint32_t k = 0;
+  for (uint32_t i = 0; i < *m; ++i) k += !(Z[i] < 1e-4 * nf);
+  if (k == 0) return false;
+  k = 0;
+  for (uint32_t i = 0; i < *m; ++i) {
+    if (Z[i] < 1e-4 * nf) continue;
+    a[k] = Z[i] / nf;
+    mu[k] = Zx[i] / Z[i];
+    v[k] = std::max(Zxx[i] / Z[i] - mu[k] * mu[k], vmin);
+    ++k;
+  }
+  if (k < *m) {
+    double t = 0;
+    for (uint32_t i = 0; i < k; ++i) t += a[i];
+    for (uint32_t i = 0; i < k; ++i) a[i] /= t;
+    *m = k;
+  }
+  return true;
+}
+
 // em_fit; exact_result: also report the exact (reference) log-likelihood,
 // which may cost one more pass (the engine does not read it).
 EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
@@ -522,24 +548,10 @@ EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io
     ll = L.sum / nf - half_log_2pi;
     ll_exact = false;
     const double ll_err = ll_error_bound(L, n, nf, ll);
-    // M-step (eq. 5.2.5-5.2.7; 5.2.7 is the variance), variance floored.
-    uint32_t k = 0;
-    for (uint32_t i = 0; i < m; ++i) {
-      if (Z[i] < 1e-4 * nf) continue;  // a component that lost its samples
-      a[k] = Z[i] / nf;
-      mu[k] = Zx[i] / Z[i];
-      v[k] = std::max(Zxx[i] / Z[i] - mu[k] * mu[k], vmin);
-      ++k;
-    }
-    if (k == 0) {  // cannot happen (the weights sum to n); keep the last parameters
+    if (!m_step(Z, Zx, Zxx, nf, vmin, a, mu, v, &m)) {
+      // cannot happen (the weights sum to n); keep the last parameters
       report = it > 1 ? kReportPrev : kReportNone;
       break;
-    }
-    if (k < m) {
-      double t = 0;
-      for (uint32_t i = 0; i < k; ++i) t += a[i];
-      for (uint32_t i = 0; i < k; ++i) a[i] /= t;
-      m = k;
     }
     bool stop = false;
     if (it > 1) {
@@ -651,21 +663,7 @@ void em_fit_weighted(const double* v, const double* w, const double* ss, uint32_
       }
     }
     ll /= nf;
-    uint32_t k = 0;
-    for (uint32_t i = 0; i < m; ++i) {
-      if (Z[i] < 1e-4 * nf) continue;
-      a[k] = Z[i] / nf;
-      mu[k] = Zx[i] / Z[i];
-      var[k] = std::max(Zxx[i] / Z[i] - mu[k] * mu[k], vmin);
-      ++k;
-    }
-    if (k == 0) break;
-    if (k < m) {
-      double t = 0;
-      for (uint32_t i = 0; i < k; ++i) t += a[i];
-      for (uint32_t i = 0; i < k; ++i) a[i] /= t;
-      m = k;
-    }
+    if (!m_step(Z, Zx, Zxx, nf, vmin, a, mu, var, &m)) break;
     if (it > 1 && ll - ll_prev < tol) break;
     ll_prev = ll;
   }
