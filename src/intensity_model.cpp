@@ -304,37 +304,75 @@ __attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT uint32_t binning_visits
   const __m512i abs_bits = _mm512_set1_epi64(0x7fffffffffffffffLL);
   uint64_t idx = *idx_io;
   uint32_t t = t0;
-  for (; t < n; ++t) {
-    const double p = x[idx];
-    uint64_t next = idx + stride;
-    if (next >= n) next -= n;
-    if (!std::isfinite(p)) {
+  // In chunks of kChunk visits: first, with the clusters fixed, every
+  // visit's nearest cluster and distance (8 visits per vector, clusters in
+  // turn, a strictly smaller distance replacing: the first minimum, as the
+  // lane reduction finds it); then the visits in order, the members' sums
+  // as before. A visit that opens a cluster changes the nearest cluster of
+  // the visits after it: their distances to the new one are compared
+  // (strictly smaller wins: it has the highest index).
+  constexpr uint32_t kChunk = 64;
+  alignas(64) double pv[kChunk], dv_[kChunk];
+  alignas(64) int64_t bv[kChunk];
+  double cs[8];
+  for (uint32_t k = 0; k < 8; ++k) cs[k] = k < K ? c[k] : INFINITY;
+  while (t < n) {
+    const uint32_t m = n - t < kChunk ? n - t : kChunk;
+    uint64_t id = idx;
+    for (uint32_t i = 0; i < m; ++i) {
+      pv[i] = x[id];
+      id += stride;
+      if (id >= n) id -= n;
+    }
+    for (uint32_t i = m; i < kChunk; ++i) pv[i] = 0;
+    for (uint32_t i = 0; i < kChunk; i += 8) {
+      const __m512d pp = _mm512_load_pd(pv + i);
+      __m512d dm = _mm512_set1_pd(INFINITY);
+      __m512i bi = _mm512_setzero_si512();
+      for (uint32_t k = 0; k < K; ++k) {
+        const __m512d e = _mm512_sub_pd(pp, _mm512_set1_pd(cs[k]));
+        const __m512d dk = _mm512_castsi512_pd(_mm512_and_si512(_mm512_castpd_si512(e), abs_bits));
+        const __mmask8 lt = _mm512_cmp_pd_mask(dk, dm, _CMP_LT_OQ);
+        dm = _mm512_mask_mov_pd(dm, lt, dk);
+        bi = _mm512_mask_mov_epi64(bi, lt, _mm512_set1_epi64(int64_t(k)));
+      }
+      _mm512_store_pd(dv_ + i, dm);
+      _mm512_store_si512(bv + i, bi);
+    }
+    uint32_t i = 0;
+    for (; i < m; ++i, ++t) {
+      const double p = pv[i];
+      uint64_t next = idx + stride;
+      if (next >= n) next -= n;
+      if (!std::isfinite(p)) {
+        idx = next;
+        continue;
+      }
+      const double d = dv_[i];
+      const uint32_t best = uint32_t(bv[i]);
+      if (K == 0 || d >= S) {
+        if (K == 8) break;
+        const __mmask8 mk = __mmask8(1u << K);
+        cv = _mm512_mask_mov_pd(cv, mk, _mm512_set1_pd(p));
+        sv = _mm512_mask_mov_pd(sv, mk, _mm512_setzero_pd());
+        s2v = _mm512_mask_mov_pd(s2v, mk, _mm512_setzero_pd());
+        nv = _mm512_mask_mov_epi64(nv, mk, one);
+        cs[K] = p;
+        for (uint32_t j = i + 1; j < m; ++j) {
+          const double dj = std::fabs(pv[j] - p);
+          if (dj < dv_[j]) dv_[j] = dj, bv[j] = int64_t(K);
+        }
+        ++K;
+      } else if (d <= R) {
+        const __m512d ev = _mm512_sub_pd(_mm512_set1_pd(p), cv);  // p - c_k
+        const __mmask8 mk = __mmask8(1u << best);
+        sv = _mm512_mask_add_pd(sv, mk, sv, ev);
+        s2v = _mm512_mask_add_pd(s2v, mk, s2v, _mm512_mul_pd(ev, ev));
+        nv = _mm512_mask_add_epi64(nv, mk, nv, one);
+      }
       idx = next;
-      continue;
     }
-    const __m512d ev = _mm512_sub_pd(_mm512_set1_pd(p), cv);  // p - c_k
-    const __m512d dv = _mm512_castsi512_pd(_mm512_and_si512(_mm512_castpd_si512(ev), abs_bits));
-    double d = INFINITY;
-    uint32_t best = 0;
-    if (K > 0) {
-      d = _mm512_reduce_min_pd(dv);
-      best = uint32_t(__builtin_ctz(_mm512_cmp_pd_mask(dv, _mm512_set1_pd(d), _CMP_EQ_OQ)));
-    }
-    if (K == 0 || d >= S) {
-      if (K == 8) break;
-      const __mmask8 m = __mmask8(1u << K);
-      cv = _mm512_mask_mov_pd(cv, m, _mm512_set1_pd(p));
-      sv = _mm512_mask_mov_pd(sv, m, _mm512_setzero_pd());
-      s2v = _mm512_mask_mov_pd(s2v, m, _mm512_setzero_pd());
-      nv = _mm512_mask_mov_epi64(nv, m, one);
-      ++K;
-    } else if (d <= R) {
-      const __mmask8 m = __mmask8(1u << best);
-      sv = _mm512_mask_add_pd(sv, m, sv, ev);
-      s2v = _mm512_mask_add_pd(s2v, m, s2v, _mm512_mul_pd(ev, ev));
-      nv = _mm512_mask_add_epi64(nv, m, nv, one);
-    }
-    idx = next;
+    if (i < m) break;  // a 9th cluster would open here
   }
   const __mmask8 out = __mmask8((1u << K) - 1u);
   _mm512_mask_storeu_pd(c, out, cv);
