@@ -420,7 +420,7 @@ void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double r
 int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
   PatchCertificate& c = s.cert;
   if (!c.built) c.build(m);
-  const uint32_t max_failed = c.ncl / 8;
+  const uint32_t max_failed = c.ncl / c.fail_share;
   if (!c.certify(x, s.normal, s.lo, s.hi, max_failed)) return -1;
   Pairs P{m, x, s, nullptr, false};
   auto decide = [&](uint32_t t, uint32_t u) {

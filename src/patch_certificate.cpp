@@ -8,17 +8,17 @@ namespace ffseg {
 
 namespace {
 
-// Clusters are blocks of kBlock x kBlock grid corners of a cube face; the
+// Clusters are blocks of block x block grid corners of a cube face; the
 // corners on a cube edge or at a cube corner go to the face of the lowest
-// axis. Corner positions along a face run 0..n, so n / kBlock + 1 blocks.
-inline uint32_t blocks_per_side(uint32_t n) { return n / PatchCertificate::kBlock + 1; }
+// axis. Corner positions along a face run 0..n, so n / block + 1 blocks.
+inline uint32_t blocks_per_side(uint32_t n, uint32_t block) { return n / block + 1; }
 
 // Raw cluster of face f: the block of the grid corner it surrounds (the mean
 // of its cells' lattice points, pushed onto the cube's surface where it lies
 // off a face). Assigning by corner keeps the union of neighbouring clusters a
 // rectangle of faces, unfolded across cube edges, so a window's boundary is
 // straight and its projection star-shaped.
-inline uint32_t face_raw_cluster(const CubeSphere& m, uint32_t f) {
+inline uint32_t face_raw_cluster(const CubeSphere& m, uint32_t f, uint32_t block) {
   const int32_t N = int32_t(m.n);
   const int k = m.face_size(f);
   int32_t sum[3] = {0, 0, 0};
@@ -39,8 +39,8 @@ inline uint32_t face_raw_cluster(const CubeSphere& m, uint32_t f) {
   if (ax == 3) ax = 0;  // not reached on a cube-sphere
   const uint32_t F = uint32_t(2 * ax + (C[ax] > 0 ? 1 : 0));
   const uint32_t c1 = uint32_t((C[(ax + 1) % 3] + N) / 2), c2 = uint32_t((C[(ax + 2) % 3] + N) / 2);
-  const uint32_t side = blocks_per_side(m.n);
-  return (F * side + c1 / PatchCertificate::kBlock) * side + c2 / PatchCertificate::kBlock;
+  const uint32_t side = blocks_per_side(m.n, block);
+  return (F * side + c1 / block) * side + c2 / block;
 }
 
 
@@ -48,7 +48,9 @@ inline uint32_t face_raw_cluster(const CubeSphere& m, uint32_t f) {
 }  // namespace
 
 void PatchCertificate::carve(Arena& a, const CubeSphere& m) {
-  const uint32_t side = blocks_per_side(m.n);
+  block = m.n <= kSmallMesh ? 2 : 4;
+  fail_share = m.n <= kSmallMesh ? 2 : 8;
+  const uint32_t side = blocks_per_side(m.n, block);
   const uint32_t cap = 6 * side * side;  // clusters before dropping empty ones
   face_cluster = a.alloc<uint32_t>(m.nfaces);
   cl_ptr = a.alloc<uint32_t>(size_t(cap) + 1);
@@ -62,9 +64,9 @@ void PatchCertificate::carve(Arena& a, const CubeSphere& m) {
   nb_cnt = a.alloc<uint32_t>(cap);
   nb = a.alloc<uint32_t>(size_t(kMaxNeighbours) * cap);
   loop_ptr = a.alloc<uint32_t>(size_t(cap) + 1);
-  // A window of 3 x 3 blocks has about 12 kBlock boundary vertices; longer
+  // A window of 3 x 3 blocks has about 12 block boundary vertices; longer
   // loops (never on a regular cube-sphere) leave the window uncertified.
-  loop_cap = cap * (16 * kBlock + 32);
+  loop_cap = cap * (16 * block + 32);
   loop = a.alloc<uint32_t>(loop_cap);
   box = a.alloc<double>(size_t(6) * cap);
   nsum = a.alloc<double>(size_t(3) * cap);
@@ -78,16 +80,16 @@ void PatchCertificate::carve(Arena& a, const CubeSphere& m) {
 }
 
 void PatchCertificate::build(const CubeSphere& m) {
-  const uint32_t nb_side = blocks_per_side(m.n);
+  const uint32_t nb_side = blocks_per_side(m.n, block);
   const uint32_t cap = 6 * nb_side * nb_side;
   // Raw clusters, then drop the empty ones (renumbered in order).
   uint32_t* count = nb_cnt;  // reused as scratch before the neighbour lists
   for (uint32_t c = 0; c < cap; ++c) count[c] = 0;
-  for (uint32_t f = 0; f < m.nfaces; ++f) ++count[face_raw_cluster(m, f)];
+  for (uint32_t f = 0; f < m.nfaces; ++f) ++count[face_raw_cluster(m, f, block)];
   uint32_t* renum = order;  // scratch
   ncl = 0;
   for (uint32_t c = 0; c < cap; ++c) renum[c] = count[c] ? ncl++ : kNone;
-  for (uint32_t f = 0; f < m.nfaces; ++f) face_cluster[f] = renum[face_raw_cluster(m, f)];
+  for (uint32_t f = 0; f < m.nfaces; ++f) face_cluster[f] = renum[face_raw_cluster(m, f, block)];
   for (uint32_t c = 0; c <= ncl; ++c) cl_ptr[c] = 0;
   for (uint32_t f = 0; f < m.nfaces; ++f) ++cl_ptr[face_cluster[f] + 1];
   for (uint32_t c = 0; c < ncl; ++c) cl_ptr[c + 1] += cl_ptr[c];
