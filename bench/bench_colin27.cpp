@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "../tests/support/system_entries.h"
+#include "../tests/test_util.h"
 #include "arena.h"
 #include "cubesphere.h"
 #include "ffseg.h"
@@ -57,15 +58,9 @@ const Peer kPeers[] = {{73, "putamen L", 0.325, "threshold level set", 0.6},
 struct Yardstick {
   Eigen::SparseMatrix<double> A;
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> llt;
-  std::vector<unsigned char> mem;
   explicit Yardstick(uint32_t n) {
     ffseg::CubeSphere mesh;
-    ffseg::Arena probe;
-    mesh.carve(probe, n);
-    mem.resize(ffseg::Arena::round_up(probe.used()) + 64);
-    void* p = mem.data() + (64 - reinterpret_cast<uintptr_t>(mem.data()) % 64) % 64;
-    ffseg::Arena a(p, probe.used());
-    mesh.carve(a, n);
+    ffseg_test::ArenaBox box([&](ffseg::Arena& a) { mesh.carve(a, n); });
     mesh.build();
     std::mt19937_64 rng(12345 + n);
     std::uniform_real_distribution<double> U(0.0, 1.0);
@@ -127,18 +122,8 @@ Run segment(const ffseg_tools::NiftiImage& t1, const ffseg_tools::NiftiImage& aa
     ffseg_params p;
     ffseg_params_init_default(&p);
     p.target_mode = FFSEG_TARGET_INTENSITY;
-    ffseg_volume v;
-    std::memset(&v, 0, sizeof v);
-    v.struct_size = sizeof v;
-    v.voxel_type = uint32_t(t1.voxel_type);
-    v.data = t1.data.data();
-    const int64_t es = int64_t(t1.data.size() / (size_t(t1.dims[0]) * t1.dims[1] * t1.dims[2]));
-    v.data_bytes = t1.data.size();
-    for (int a = 0; a < 3; ++a) v.dims[a] = t1.dims[a];
-    v.strides[0] = es;
-    v.strides[1] = es * t1.dims[0];
-    v.strides[2] = es * t1.dims[0] * t1.dims[1];
-    std::memcpy(v.index_to_world, t1.index_to_world, sizeof v.index_to_world);
+    const int64_t dims[3] = {t1.dims[0], t1.dims[1], t1.dims[2]};
+    ffseg_volume v = ffseg_test::make_volume(t1.data.data(), uint32_t(t1.voxel_type), dims, t1.index_to_world);
     v.rescale_slope = t1.scl_slope;
     v.rescale_intercept = t1.scl_inter;
     if (ffseg_set_params(e, &p) != FFSEG_OK || ffseg_set_volume(e, &v) != FFSEG_OK ||
