@@ -148,6 +148,18 @@ class IntensityModel {
   static constexpr uint32_t kLutMax = 65536;
   static constexpr uint32_t kDefaultSamples = 65536;  // a suggested cap (256 KB)
   static constexpr uint32_t kSceneSamples = 16384;    // cap on the crop voxels of the scene mixture
+  // The scene fit bins its samples (compress) when it has more than
+  // kCompressAbove, kBinsPerSigma bins to the floor, at most kCompressBins.
+  static constexpr uint32_t kCompressBins = 4096;
+  static constexpr uint32_t kCompressAbove = 4096;
+  static constexpr double kBinsPerSigma = 32;
+
+  // The finite samples of x in bins of the given width (wider when more than
+  // kCompressBins would be needed) from their minimum: per non-empty bin, in
+  // order, the mean less shift (v), the count (w) and the sum of squares
+  // about the mean (ss). Returns the number of non-empty bins.
+  static uint32_t compress(const float* x, uint32_t n, double shift, double width, double* v, double* w,
+                           double* ss);
 
   // max_samples: cap on the voxels drawn from the sphere.
   void carve(Arena& a, uint32_t max_samples);
@@ -207,18 +219,6 @@ class IntensityModel {
                               const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found,
                               double* hist = nullptr);
 
- public:
-  static constexpr uint32_t kCompressBins = 4096;
-  static constexpr uint32_t kCompressAbove = 4096;
-  static constexpr double kBinsPerSigma = 32;
-  // The finite samples of x in bins of the given width (wider when more than
-  // kCompressBins would be needed) from their minimum: per non-empty bin, in
-  // order, the mean less shift (v), the count (w) and the sum of squares
-  // about the mean (ss). Returns the number of non-empty bins.
-  static uint32_t compress(const float* x, uint32_t n, double shift, double width, double* v, double* w,
-                           double* ss);
-
- private:
   void normalise_and_tabulate(const LutSpec& lut);
 
   float* samples_ = nullptr;

@@ -37,12 +37,10 @@ int64_t clamp_to_index(double v, int64_t lo, int64_t hi) {
   return int64_t(v);
 }
 
-}  // namespace
-
-namespace {
 // Floats of padding around each flux buffer of the sweep (vector loads one
 // lane before a row's first u face).
 constexpr int64_t kFluxPad = 16;
+
 }  // namespace
 
 int64_t SmoothedRoi::plane_capacity(int64_t max_voxels) {

@@ -393,9 +393,7 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // Each round's test of its new positions also gives the next round's marks
   // (ts.vertex_marks); the first round marks from scratch.
   uint8_t* moved = ts.vertex_flags;
-  bool tracked = false;
-  if (!clean)
-    for (size_t v = 0; v < nv; ++v) ts.vertex_pending[v] = 0;
+  bool tracked = false;  // mark_all's first intersection test is from scratch
   for (int round = 0; round < kLocalRounds && !clean; ++round) {
     if (round == 0) mark_all(m, x_old, xs, nullptr, ts, &tracked);
     for (size_t v = 0; v < nv; ++v) mark[v] = ts.vertex_marks[v];
