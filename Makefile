@@ -4,7 +4,8 @@
 #   make test    deps + build + every test (ctest)
 #   make demo    deps + build + the main job
 #   make bench   deps + build + benchmarks (tables on stdout)
-#   make install PREFIX=/usr/local
+#   make check-python  the Python module's tests alone (pytest under /usr/bin/python3)
+#   make install PREFIX=/usr/local   (library, header, ffseg tool, Python package)
 BUILD ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 PREFIX ?= /usr/local
@@ -12,8 +13,11 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
 DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev doctest-dev zlib1g-dev libstb-dev \
                 clang libclang-rt-14-dev liblapack-dev libopenblas-dev mricron-data
+# Python module, batch and image formats (issue 18): the tests run under /usr/bin/python3.
+DEB_PACKAGES += python3-numpy python3-pytest python3-distributed python3-nibabel python3-pydicom \
+                libgdcm-dev
 
-.PHONY: all build deps test demo bench install clean fuzz fuzz-smoke check-sanitizers check-portable
+.PHONY: all build deps test demo bench install clean fuzz fuzz-smoke check-sanitizers check-portable check-python
 
 all: build
 
@@ -53,6 +57,12 @@ demo: deps
 	./$(BUILD)/ffseg segment $(MRI)/ch2bet.nii.gz --target binary --sphere 0,-17,19,80 \
 	  --names brain --out $(DEMO_OUT)/brain --force
 	@echo; echo "demo: outputs (meshes, labels.nii.gz, overlay.png, report.json) in $(DEMO_OUT)/putamen_L and $(DEMO_OUT)/brain"
+
+# The Python tests (also part of `make test` as ctest's `python` test).
+check-python: deps
+	cmake -S . -B $(BUILD) $(CMAKE_FLAGS)
+	cmake --build $(BUILD) -j $(JOBS) --target ffseg_shared ffseg_cli ffseg_abi_layout
+	cd $(BUILD) && ctest --output-on-failure -R '^python$$'
 
 bench: deps
 	$(MAKE) build

@@ -1,0 +1,399 @@
+"""ffseg: flipping-free mesh segmentation of 3D volumes, from Python.
+
+A ctypes binding of the C ABI (include/ffseg.h) with numpy arrays; no compiled
+extension. The shared library is the one named by the FFSEG_LIBRARY
+environment variable, else build/libffseg.so.0 of the source tree this package
+sits in, else the installed one (next to this package or on the loader path).
+
+    import ffseg
+    e = ffseg.Engine(max_objects=1, mesh_resolution=33)
+    e.set_params(target_mode="intensity", step_size=0.5)
+    e.set_volume(array, affine)          # array[i, j, k], affine voxel -> mm
+    e.init_sphere(0, (x, y, z), radius_mm)
+    while not e.step(): pass
+    verts, tris = e.extract_mesh(0)
+    mask = e.rasterize(0)
+
+Errors raise ffseg.Error, with .status (the C status code) and the engine's
+message.
+"""
+import ctypes as _C
+import ctypes.util as _cutil
+import os as _os
+
+import numpy as _np
+
+from . import _abi
+from ._abi import (CONVERGED, OK, STAGE_NAMES, TARGET_BINARY,  # noqa: F401
+                   TARGET_INTENSITY)
+
+__all__ = ["Engine", "Error", "StepInfo", "segment", "library_path", "version",
+           "param_names", "TARGET_BINARY", "TARGET_INTENSITY", "STAGE_NAMES"]
+
+
+class Error(Exception):
+    """An ffseg call failed: .status is the C status code (< 0), .name its
+    FFSEG_ERR_* name without the prefix, .message the engine's message."""
+
+    def __init__(self, status, message, call=None):
+        self.status = int(status)
+        self.name = _abi.STATUS_NAMES.get(self.status, "UNKNOWN")
+        self.message = message
+        self.call = call
+        where = f"{call}: " if call else ""
+        super().__init__(f"{where}{message} [{self.name}, status {self.status}]")
+
+
+# ---- the library ---------------------------------------------------------------
+
+def _candidates():
+    env = _os.environ.get("FFSEG_LIBRARY")
+    if env:
+        return [env], True
+    here = _os.path.dirname(_os.path.abspath(__file__))
+    out = []
+    # The source tree: bindings/python/ffseg -> the repository root.
+    root = _os.path.normpath(_os.path.join(here, "..", "..", ".."))
+    out.append(_os.path.join(root, "build", "libffseg.so.0"))
+    try:  # written by `make install`: the installed library's path
+        from ._install import LIBRARY  # type: ignore
+        out.append(LIBRARY)
+    except ImportError:
+        pass
+    found = _cutil.find_library("ffseg")
+    out.append(found or "libffseg.so.0")
+    return out, False
+
+
+def _load():
+    paths, explicit = _candidates()
+    errors = []
+    for p in paths:
+        if _os.path.sep in p and not _os.path.exists(p):
+            errors.append(f"{p}: no such file")
+            continue
+        try:
+            return _abi.bind(_C.CDLL(p)), p
+        except OSError as ex:
+            errors.append(f"{p}: {ex}")
+    how = "FFSEG_LIBRARY" if explicit else "looked for"
+    raise ImportError("ffseg: cannot load the shared library (" + how + ": " + "; ".join(errors) +
+                      "). Build it with `make` or set FFSEG_LIBRARY to libffseg.so.0")
+
+
+_lib, library_path = _load()
+
+
+def version():
+    """The library's version as (major, minor, patch)."""
+    v = _lib.ffseg_version_number()
+    return (v // 10000, v // 100 % 100, v % 100)
+
+
+def _status_text(status):
+    s = _lib.ffseg_status_string(status)
+    return s.decode() if s else "unknown status"
+
+
+def _check(status, call, engine=None):
+    if status < 0:
+        msg = _lib.ffseg_last_error(engine)
+        msg = msg.decode(errors="replace") if msg else ""
+        raise Error(status, msg or _status_text(status), call)
+    return status
+
+
+_PARAM_FIELDS = [n for n, _ in _abi.Params._fields_ if n != "struct_size"]
+
+
+def param_names():
+    """Every ffseg_params field settable with Engine.set_params / segment."""
+    return list(_PARAM_FIELDS)
+
+
+def _default_params():
+    p = _abi.Params()
+    _lib.ffseg_params_init_default(_C.byref(p))
+    p.struct_size = _C.sizeof(p)
+    return p
+
+
+# ---- voxel types ----------------------------------------------------------------
+
+_DTYPES = {
+    _np.dtype(_np.uint8): _abi.U8, _np.dtype(_np.int16): _abi.I16,
+    _np.dtype(_np.uint16): _abi.U16, _np.dtype(_np.int32): _abi.I32,
+    _np.dtype(_np.float32): _abi.F32, _np.dtype(_np.float64): _abi.F64,
+}
+
+
+def _volume_descriptor(array, affine, rescale_slope, rescale_intercept):
+    """An ffseg_volume viewing `array` in place (no copy): its strides as they
+    are (negative, padded or unaligned are all fine), the readable span
+    computed from them."""
+    if not isinstance(array, _np.ndarray):
+        raise TypeError("ffseg: the volume must be a numpy.ndarray (got %s)" % type(array).__name__)
+    if array.ndim != 3:
+        raise ValueError(f"ffseg: the volume must be 3-D (array[i, j, k]), got {array.ndim}-D shape {array.shape}")
+    dt = array.dtype
+    if dt.byteorder not in ("=", "|") and dt != dt.newbyteorder("="):
+        raise ValueError(f"ffseg: the volume's dtype {dt.str} is not in native byte order; "
+                         "use array.astype(array.dtype.newbyteorder('='))")
+    code = _DTYPES.get(_np.dtype(dt.type) if dt.isnative else None)
+    if code is None or not dt.isnative:
+        raise ValueError(f"ffseg: unsupported voxel dtype {dt} (supported: uint8, int16, uint16, "
+                         "int32, float32, float64; convert with array.astype(...))")
+    if array.size == 0:
+        raise ValueError(f"ffseg: the volume is empty (shape {array.shape})")
+    A = _np.asarray(affine, dtype=_np.float64)
+    if A.shape != (4, 4):
+        raise ValueError(f"ffseg: the affine must be 4x4, got shape {A.shape}")
+    item = dt.itemsize
+    base = array.__array_interface__["data"][0]
+    lo = hi = 0
+    for n, s in zip(array.shape, array.strides):
+        span = (n - 1) * s
+        lo += min(0, span)
+        hi += max(0, span)
+    v = _abi.Volume()
+    v.struct_size = _C.sizeof(v)
+    v.voxel_type = code
+    v.data = base + lo
+    v.data_bytes = hi - lo + item
+    v.offset = -lo
+    for a in range(3):
+        v.dims[a] = array.shape[a]
+        v.strides[a] = array.strides[a]
+    for k, x in enumerate(A.reshape(16)):
+        v.index_to_world[k] = float(x)
+    v.rescale_slope = float(rescale_slope)
+    v.rescale_intercept = float(rescale_intercept)
+    return v
+
+
+# ---- the engine -----------------------------------------------------------------
+
+class StepInfo:
+    """What one ffseg_step reported: step_index, active_objects, per-object
+    lists (mean_displacement_mm, vertices_with_target, flips_avoided,
+    intersections_avoided, border_vertices; one entry per object, at most 16)
+    and stage_us, a dict of microseconds by stage name."""
+
+    def __init__(self, raw, objects):
+        n = min(objects, _abi.REPORT_OBJECTS)
+        self.step_index = raw.step_index
+        self.active_objects = raw.active_objects
+        for f in ("mean_displacement_mm", "vertices_with_target", "flips_avoided",
+                  "intersections_avoided", "border_vertices"):
+            setattr(self, f, list(getattr(raw, f))[:n])
+        self.stage_us = {name: int(raw.stage_us[i]) for i, name in enumerate(STAGE_NAMES)}
+
+    def __repr__(self):
+        return (f"StepInfo(step_index={self.step_index}, mean_displacement_mm="
+                f"{self.mean_displacement_mm}, stage_us={self.stage_us})")
+
+
+class Engine:
+    """One ffseg engine inside a 64-byte aligned workspace it owns.
+
+    Engine(max_objects=1, mesh_resolution=33, max_roi_voxels=None): the
+    ffseg_config fields (None keeps the library's default). Use from one
+    thread at a time; distinct engines may run in parallel."""
+
+    def __init__(self, max_objects=1, mesh_resolution=33, max_roi_voxels=None):
+        cfg = _abi.Config()
+        _lib.ffseg_config_init_default(_C.byref(cfg))
+        cfg.struct_size = _C.sizeof(cfg)
+        cfg.max_objects = _u32(max_objects, "max_objects")
+        cfg.mesh_resolution = _u32(mesh_resolution, "mesh_resolution")
+        if max_roi_voxels is not None:
+            cfg.max_roi_voxels = int(max_roi_voxels)
+        self._e = None
+        nbytes = _C.c_size_t(0)
+        _check(_lib.ffseg_workspace_size(_C.byref(cfg), _C.byref(nbytes)), "ffseg_workspace_size")
+        self.workspace_bytes = nbytes.value
+        self._buf = _np.empty(self.workspace_bytes + 64, dtype=_np.uint8)
+        addr = self._buf.ctypes.data
+        self._ws = addr + (-addr) % 64
+        e = _C.c_void_p()
+        _check(_lib.ffseg_create(_C.byref(cfg), _C.c_void_p(self._ws), self.workspace_bytes,
+                                 _C.byref(e)), "ffseg_create")
+        self._e = e
+        self.config = {"max_objects": cfg.max_objects, "mesh_resolution": cfg.mesh_resolution,
+                       "max_roi_voxels": cfg.max_roi_voxels}
+        self._params = _default_params()
+        self._volume = None  # the array the engine reads: kept alive here
+        self._shape = None
+        self.last_step_info = None
+
+    # lifetime
+    def close(self):
+        """Ends the engine (its workspace is freed with this object)."""
+        if self._e is not None:
+            _lib.ffseg_destroy(self._e)
+            self._e = None
+        self._volume = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def _handle(self):
+        if self._e is None:
+            raise Error(-8, "the engine was closed", "Engine")
+        return self._e
+
+    # parameters
+    @property
+    def params(self):
+        """The current parameters as a dict (field name -> value)."""
+        return {n: getattr(self._params, n) for n in _PARAM_FIELDS}
+
+    def set_params(self, **fields):
+        """Sets ffseg_params fields by name (target_mode also takes "binary" or
+        "intensity"); the others keep their values. On an error nothing
+        changes and the message names the field."""
+        p = _abi.Params()
+        _C.pointer(p)[0] = self._params
+        for name, value in fields.items():
+            if name not in _PARAM_FIELDS:
+                raise Error(-1, f"unknown parameter '{name}' (known: {', '.join(_PARAM_FIELDS)})",
+                            "set_params")
+            if name == "target_mode" and isinstance(value, str):
+                if value not in _abi.TARGET_MODES:
+                    raise Error(-1, f"target_mode: expected 'binary' or 'intensity', got '{value}'",
+                                "set_params")
+                value = _abi.TARGET_MODES[value]
+            ctype = dict(_abi.Params._fields_)[name]
+            try:
+                if ctype is _C.c_uint32:
+                    iv = int(value)
+                    if iv != value or not 0 <= iv <= 0xFFFFFFFF:
+                        raise ValueError
+                    setattr(p, name, iv)
+                else:
+                    setattr(p, name, float(value))
+            except (TypeError, ValueError):
+                raise Error(-1, f"{name}: {value!r} is not a valid "
+                            f"{'integer 0..2^32-1' if ctype is _C.c_uint32 else 'number'}",
+                            "set_params") from None
+        _check(_lib.ffseg_set_params(self._handle(), _C.byref(p)), "ffseg_set_params", self._e)
+        self._params = p
+
+    # the volume
+    def set_volume(self, array, affine, rescale_slope=1.0, rescale_intercept=0.0):
+        """The volume the objects deform in: array[i, j, k] (nibabel's index
+        order) of uint8, int16, uint16, int32, float32 or float64, any strides,
+        used in place (the engine keeps a reference, never writes it; do not
+        change it while stepping); affine: 4x4 voxel centre -> world mm;
+        value = rescale_slope * stored + rescale_intercept."""
+        v = _volume_descriptor(array, affine, rescale_slope, rescale_intercept)
+        _check(_lib.ffseg_set_volume(self._handle(), _C.byref(v)), "ffseg_set_volume", self._e)
+        self._volume = array
+        self._shape = tuple(array.shape)
+
+    def sample(self, point_mm, linear=True):
+        """The rescaled intensity at a world point (trilinear or nearest)."""
+        pt = (_C.c_double * 3)(*map(float, point_mm))
+        out = _C.c_double(0)
+        _check(_lib.ffseg_sample(self._handle(), pt, 1 if linear else 0, _C.byref(out)),
+               "ffseg_sample", self._e)
+        return out.value
+
+    # objects
+    def init_sphere(self, obj, center_mm, radius_mm):
+        """Places object `obj`'s mesh on a sphere (world mm)."""
+        c = tuple(map(float, center_mm))
+        if len(c) != 3:
+            raise Error(-1, f"the centre needs 3 coordinates, got {len(c)}", "init_sphere")
+        _check(_lib.ffseg_init_sphere(self._handle(), _u32(obj, "object"), (_C.c_double * 3)(*c),
+                                      float(radius_mm)), "ffseg_init_sphere", self._e)
+
+    def step(self):
+        """One deformation step of every placed object; True once every object
+        has converged. The step's report is in .last_step_info (StepInfo)."""
+        raw = _abi.StepInfo()
+        raw.struct_size = _C.sizeof(raw)
+        st = _check(_lib.ffseg_step(self._handle(), _C.byref(raw)), "ffseg_step", self._e)
+        self.last_step_info = StepInfo(raw, self.config["max_objects"])
+        return st == CONVERGED
+
+    def extract_mesh(self, obj):
+        """(vertices, triangles): (N, 3) float32 world mm and (M, 3) uint32,
+        counter-clockwise seen from outside."""
+        h = self._handle()
+        o = _u32(obj, "object")
+        nv, nt = _C.c_size_t(0), _C.c_size_t(0)
+        _check(_lib.ffseg_extract_mesh(h, o, None, 0, None, 0, _C.byref(nv), _C.byref(nt)),
+               "ffseg_extract_mesh", h)
+        xyz = _np.empty((nv.value, 3), dtype=_np.float32)
+        tris = _np.empty((nt.value, 3), dtype=_np.uint32)
+        _check(_lib.ffseg_extract_mesh(
+            h, o, xyz.ctypes.data_as(_C.POINTER(_C.c_float)), nv.value,
+            tris.ctypes.data_as(_C.POINTER(_C.c_uint32)), nt.value, _C.byref(nv), _C.byref(nt)),
+            "ffseg_extract_mesh", h)
+        return xyz, tris
+
+    def rasterize(self, obj, out=None):
+        """uint8 mask shaped like the volume: 1 where the voxel centre lies
+        inside the object's mesh. `out`: an optional writable uint8 array of
+        that shape (any strides) to fill instead."""
+        h = self._handle()
+        if self._shape is None:
+            raise Error(-8, "no volume: call set_volume first", "rasterize")
+        if out is None:
+            out = _np.zeros(self._shape, dtype=_np.uint8)
+        elif (not isinstance(out, _np.ndarray) or out.dtype != _np.uint8 or
+              tuple(out.shape) != self._shape or not out.flags.writeable):
+            raise Error(-1, f"out must be a writable uint8 array of shape {self._shape}", "rasterize")
+        strides = (_C.c_int64 * 3)(*out.strides)
+        ptr = _C.cast(_C.c_void_p(out.__array_interface__["data"][0]), _C.POINTER(_C.c_uint8))
+        _check(_lib.ffseg_rasterize(h, _u32(obj, "object"), ptr, strides), "ffseg_rasterize", h)
+        return out
+
+
+def _u32(x, what):
+    try:
+        v = int(x)
+    except (TypeError, ValueError):
+        raise Error(-1, f"{what}: {x!r} is not an integer") from None
+    if v != x or not 0 <= v <= 0xFFFFFFFF:
+        raise Error(-1, f"{what}: {x!r} is outside 0..2^32-1")
+    return v
+
+
+def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33, max_steps=200,
+            max_roi_voxels=None, rescale_slope=1.0, rescale_intercept=0.0, return_meshes=False,
+            **params):
+    """One call: every sphere ((x, y, z), radius_mm) grows into an object.
+
+    The defaults are the `ffseg segment` tool's (grey-level target, n = 33,
+    200 steps, crop budget = the voxel count up to 2^26), so the same inputs
+    give the tool's masks voxel for voxel. **params: any ffseg_params field.
+    Returns one uint8 mask per sphere (and the meshes with return_meshes)."""
+    spheres = list(spheres)
+    if not spheres:
+        raise Error(-1, "no sphere given", "segment")
+    if max_roi_voxels is None:
+        max_roi_voxels = min(int(_np.prod(_np.shape(array))), 1 << 26)
+    with Engine(max_objects=len(spheres), mesh_resolution=mesh_resolution,
+                max_roi_voxels=max_roi_voxels) as e:
+        e.set_params(target_mode=target_mode, **params)
+        e.set_volume(array, affine, rescale_slope, rescale_intercept)
+        for k, (centre, radius) in enumerate(spheres):
+            e.init_sphere(k, centre, radius)
+        for _ in range(int(max_steps)):
+            if e.step():
+                break
+        masks = [e.rasterize(k) for k in range(len(spheres))]
+        if return_meshes:
+            return masks, [e.extract_mesh(k) for k in range(len(spheres))]
+        return masks

@@ -1,0 +1,188 @@
+"""The Python module on synthetic volumes: the C API's calls, strides, dtypes
+and every refusal as ffseg.Error."""
+import numpy as np
+import pytest
+
+from conftest import affine, ball
+
+import ffseg
+
+
+def grow(e, max_steps=100):
+    for s in range(max_steps):
+        if e.step():
+            return s + 1
+    return max_steps
+
+
+def binary_run(vol, A, centre, radius, n=8):
+    return ffseg.segment(vol, A, [(centre, radius)], target_mode="binary", mesh_resolution=n)[0]
+
+
+def test_version_and_library():
+    assert ffseg.version()[0] == 0
+    assert ffseg.library_path.endswith(".so.0") or "libffseg" in ffseg.library_path
+
+
+def test_binary_ball_grows_to_its_border_and_steps_report_stage_times():
+    vol = ball()
+    truth = ball(inside=1, outside=0)
+    with ffseg.Engine(max_objects=1, mesh_resolution=10) as e:
+        e.set_params(target_mode="binary", step_size=0.5)
+        assert e.params["target_mode"] == ffseg.TARGET_BINARY and e.params["step_size"] == 0.5
+        e.set_volume(vol, affine())
+        e.init_sphere(0, (20.0, 17.0, 15.5), 3.0)
+        assert not e.step()
+        info = e.last_step_info
+        assert info.step_index == 1
+        assert set(info.stage_us) == set(ffseg.STAGE_NAMES)
+        assert sum(info.stage_us.values()) > 0
+        assert info.mean_displacement_mm[0] > 0.1 and info.vertices_with_target[0] > 0
+        steps = 1 + grow(e)
+        assert e.last_step_info.step_index == steps
+        verts, tris = e.extract_mesh(0)
+        assert verts.dtype == np.float32 and verts.shape[1] == 3 and len(verts) > 500
+        assert tris.dtype == np.uint32 and tris.shape[1] == 3 and tris.max() < len(verts)
+        r = np.linalg.norm(verts - np.array([20.0, 17.0, 15.5], np.float32), axis=1)
+        assert abs(r.mean() - 9.0) < 1.0
+        mask = e.rasterize(0)
+    assert mask.shape == vol.shape and mask.dtype == np.uint8
+    inter = np.logical_and(mask, truth).sum()
+    dice = 2 * inter / (mask.sum() + truth.sum())
+    assert dice > 0.9
+
+
+def test_every_dtype_and_layout_gives_the_same_mask():
+    base = ball()
+    A = affine((1.0, 1.1, 0.9), (-5.0, 3.0, 2.0))
+    centre = tuple((A @ np.array([20.0, 17.0, 15.5, 1.0]))[:3])
+    ref = binary_run(base, A, centre, 3.0)
+    assert 2000 < ref.sum() < 4500  # the ball: 4/3 pi 9^3 = 3054 voxels
+    for dt in (np.int16, np.uint16, np.int32, np.float32, np.float64):
+        assert np.array_equal(binary_run(base.astype(dt), A, centre, 3.0), ref), dt
+    # Fortran order, a padded (sliced) view, a transposed copy read back in i, j, k order.
+    assert np.array_equal(binary_run(np.asfortranarray(base), A, centre, 3.0), ref)
+    padded = np.zeros((base.shape[0] * 2, base.shape[1], base.shape[2] + 3), np.uint8)
+    padded[::2, :, 1:-2] = base
+    assert np.array_equal(binary_run(padded[::2, :, 1:-2], A, centre, 3.0), ref)
+    # Unaligned: int16 voxels at an odd byte address.
+    raw = np.zeros(base.size * 2 + 1, np.uint8)
+    odd = np.ndarray(base.shape, np.int16, raw, 1,
+                     (2 * base.shape[1] * base.shape[2], 2 * base.shape[2], 2))
+    odd[...] = base
+    assert not odd.flags.aligned
+    assert np.array_equal(binary_run(odd, A, centre, 3.0), ref)
+
+
+def test_negative_strides_are_read_through_their_affine():
+    vol = ball(centre=(12.0, 17.0, 15.5))
+    A = affine()
+    ref = binary_run(vol, A, (12.0, 17.0, 15.5), 3.0)
+    # The same voxels with i reversed: a view (negative stride) and an affine
+    # that maps the new index i' = 39 - i to the same place.
+    flipped = vol[::-1]
+    assert flipped.strides[0] < 0
+    B = A.copy()
+    B[0, 0], B[0, 3] = -1.0, 39.0
+    got = binary_run(flipped, B, (12.0, 17.0, 15.5), 3.0)
+    assert np.array_equal(got[::-1], ref)
+    # A copy in memory gives the same too.
+    assert np.array_equal(binary_run(np.ascontiguousarray(flipped), B, (12.0, 17.0, 15.5), 3.0), got)
+
+
+def test_the_engine_keeps_the_array_alive():
+    with ffseg.Engine(mesh_resolution=6) as e:
+        e.set_params(target_mode="binary")
+        e.set_volume(ball(), affine())  # no other reference to the array
+        import gc
+        gc.collect()
+        e.init_sphere(0, (20, 17, 15.5), 3)
+        grow(e)
+        assert e.rasterize(0).sum() > 1000
+
+
+def test_rasterize_into_a_strided_output():
+    vol = ball()
+    with ffseg.Engine(mesh_resolution=8) as e:
+        e.set_params(target_mode="binary")
+        e.set_volume(vol, affine())
+        e.init_sphere(0, (20, 17, 15.5), 3)
+        grow(e)
+        ref = e.rasterize(0)
+        out = np.zeros(vol.shape[::-1], np.uint8).T  # Fortran-like strides
+        assert e.rasterize(0, out=out) is out
+        assert np.array_equal(out, ref)
+        with pytest.raises(ffseg.Error, match="uint8"):
+            e.rasterize(0, out=np.zeros(vol.shape, np.int16))
+
+
+def test_refusals_raise_ffseg_error_with_status_and_message():
+    vol = ball()
+    e = ffseg.Engine(mesh_resolution=6)
+    with pytest.raises(ffseg.Error) as ex:
+        e.init_sphere(0, (1, 2, 3), 2.0)  # no volume yet
+    assert ex.value.status == -8 and ex.value.name == "MISUSE" and ex.value.message
+    with pytest.raises(ffseg.Error) as ex:
+        e.set_params(step_size=2.0)
+    assert ex.value.status == -1 and "step_size" in str(ex.value)
+    assert e.params["step_size"] == 0.5  # unchanged
+    with pytest.raises(ffseg.Error, match="unknown parameter 'stepsize'"):
+        e.set_params(stepsize=0.3)
+    with pytest.raises(ffseg.Error, match="target_mode"):
+        e.set_params(target_mode="levelset")
+    with pytest.raises(ffseg.Error, match="diffusion_iterations"):
+        e.set_params(diffusion_iterations=2.5)
+    with pytest.raises(ValueError, match="unsupported voxel dtype int8"):
+        e.set_volume(vol.astype(np.int8), affine())
+    with pytest.raises(ValueError, match="unsupported voxel dtype bool"):
+        e.set_volume(vol > 0, affine())
+    with pytest.raises(ValueError, match="native byte order"):
+        e.set_volume(vol.astype(">i2"), affine())
+    with pytest.raises(ValueError, match="3-D"):
+        e.set_volume(vol[:, :, 0], affine())
+    with pytest.raises(ValueError, match="4x4"):
+        e.set_volume(vol, np.eye(3))
+    with pytest.raises(TypeError):
+        e.set_volume(vol.tolist(), affine())
+    # Overlapping voxels (a broadcast view) and a singular affine: the engine's checks.
+    with pytest.raises(ffseg.Error) as ex:
+        e.set_volume(np.broadcast_to(vol[:1], vol.shape), affine())
+    assert ex.value.status == -5
+    with pytest.raises(ffseg.Error) as ex:
+        e.set_volume(vol, np.diag([1.0, 0.0, 1.0, 1.0]))
+    assert ex.value.status == -5 and ex.value.message
+    with pytest.raises(ffseg.Error) as ex:
+        e.set_volume(vol, affine(), rescale_slope=0.0)
+    assert ex.value.status == -5
+    e.set_volume(vol, affine())
+    with pytest.raises(ffseg.Error) as ex:
+        e.init_sphere(0, (500, 500, 500), 2.0)
+    assert ex.value.name == "SPHERE_OUTSIDE"
+    with pytest.raises(ffseg.Error) as ex:
+        e.init_sphere(1, (20, 17, 15), 2.0)
+    assert ex.value.name == "OBJECT_OUT_OF_RANGE"
+    with pytest.raises(ffseg.Error) as ex:
+        e.step()  # no object placed
+    assert ex.value.name == "MISUSE"
+    with pytest.raises(ffseg.Error) as ex:
+        ffseg.Engine(mesh_resolution=1)
+    assert ex.value.status == -1 and "mesh_resolution" in ex.value.message
+    e.close()
+    with pytest.raises(ffseg.Error, match="closed"):
+        e.step()
+
+
+def test_segment_several_objects_and_intensity_target():
+    vol = ball(shape=(48, 32, 32), centre=(12.0, 16.0, 16.0), radius=7.0, outside=20, noise=4.0)
+    second = ball(shape=(48, 32, 32), centre=(35.0, 16.0, 16.0), radius=6.0, inside=140, outside=0)
+    vol = np.maximum(vol, second)
+    masks, meshes = ffseg.segment(vol, affine(), [((12, 16, 16), 3.0), ((35, 16, 16), 3.0)],
+                                  target_mode="intensity", mesh_resolution=8, max_steps=80,
+                                  return_meshes=True)
+    assert len(masks) == 2 and len(meshes) == 2
+    for m, c, r in zip(masks, (12, 35), (7.0, 6.0)):
+        vox = m.sum()
+        assert 0.6 * (4 / 3) * np.pi * r ** 3 < vox < 1.4 * (4 / 3) * np.pi * r ** 3
+        ii = np.nonzero(m)[0]
+        assert abs(ii.mean() - c) < 1.0
+    assert not np.logical_and(*masks).any()
