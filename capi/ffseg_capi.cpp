@@ -235,6 +235,11 @@ FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p) 
                   p->struct_size, sizeof(ffseg_params));
     return FFSEG_ERR_STRUCT_SIZE;
   }
+  // Refused now so that a later version may give the field a meaning with 0 as its default.
+  if (full.reserved1 != 0) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "params.reserved1 must be 0");
+    return FFSEG_ERR_INVALID_ARGUMENT;
+  }
   ffseg::Params q;
   q.target_mode = ffseg::TargetMode(full.target_mode);
   q.lambda_laplacian = full.lambda_laplacian;

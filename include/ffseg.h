@@ -4,12 +4,13 @@
  * without ever letting it flip or self-intersect (Ding Feng, "3D Segmentation
  * of Soft Tissues by Flipping-free Mesh Deformation", chapters 4-6).
  *
- * Rules this header keeps (see shared/API.md):
+ * Rules this header keeps:
  *  - plain C: <stdint.h>/<stddef.h> types only, no bool, no enums in structs or
  *    signatures, no unions, bit-fields, variadics or inline functions;
  *  - every struct crossing the boundary starts with uint32_t struct_size; fields
  *    are only ever appended; the library reads min(struct_size, its own size),
- *    and *_init_default() fills one completely;
+ *    and *_init_default() fills one completely; no struct has implicit padding
+ *    (reserved fields fill it), so an appended field always changes sizeof;
  *  - every call returns ffseg_status: 0 success, > 0 a non-error outcome,
  *    < 0 an error; error numbers never change once released;
  *  - nothing is ever allocated: the caller asks for the workspace size, hands
@@ -19,7 +20,9 @@
  *    may run in parallel on distinct workspaces;
  *  - geometry is in millimetres in the caller's world frame, the frame of the
  *    volume's 4x4 index-to-world affine (voxel centres). LPS or RAS does not
- *    matter: outputs come back in the same frame.
+ *    matter: outputs come back in the same frame;
+ *  - out-parameters on failure: each call below says what it writes when it
+ *    fails; anything it does not name is left as the caller had it.
  *
  * Typical use:
  *     ffseg_config cfg;  ffseg_config_init_default(&cfg);  cfg.max_objects = 1;
@@ -131,7 +134,7 @@ FFSEG_API void ffseg_config_init_default(ffseg_config* c);
 /* Exact workspace size in bytes for config *c: ffseg_create succeeds with this
  * many bytes and fails with one byte fewer. Errors: NULL_POINTER,
  * STRUCT_SIZE, INVALID_ARGUMENT (field named in ffseg_last_error(NULL)),
- * CONFIG_TOO_LARGE. */
+ * CONFIG_TOO_LARGE. On failure *bytes is set to 0 (when bytes is not NULL). */
 FFSEG_API ffseg_status ffseg_workspace_size(const ffseg_config* c, size_t* bytes);
 
 /* Creates an engine inside workspace[0, bytes). The workspace must be 64-byte
@@ -180,7 +183,7 @@ typedef struct ffseg_params {
                                     region's noise estimate; [0, 1e9]; default 0 */
   double intensity_gamma;        /* Gamma: a sample is object when g(x) >= Gamma, g the intensity model's
                                     likelihood divided by its peak, and no competing class of the region more
-                                    probable (see src/intensity_model.h); (0, 1); default 0.2 */
+                                    probable; (0, 1); default 0.2 */
   double sigma_floor_fraction;   /* lower bound on each Gaussian's standard deviation as a fraction of the
                                     region's 1st-99th percentile range (a small sphere in clean data
                                     under-estimates the spread); [0, 1]; default 0.05 */
@@ -189,9 +192,11 @@ typedef struct ffseg_params {
   uint32_t partial_volume_steps; /* grey-level targets: once an object comes to rest, at most this many more
                                     steps with each boundary moved from where the intensity model gives up to
                                     the half-way level between the object's class and the competing class
-                                    beyond it (partial-volume voxels that are mostly object; see
-                                    src/intensity_search.h), or until it rests again; 0 = off; 0..1000;
-                                    default 4 */
+                                    beyond it (partial-volume voxels that are mostly object), or until
+                                    it rests again; 0 = off; 0..1000; default 4 */
+  uint32_t reserved1;            /* must be 0; fills what would be tail padding after
+                                    partial_volume_steps, so that a field appended later grows
+                                    sizeof and struct_size tells the two layouts apart */
 } ffseg_params;
 
 /* Fills *p with the defaults above and struct_size = sizeof(ffseg_params). */
@@ -199,7 +204,7 @@ FFSEG_API void ffseg_params_init_default(ffseg_params* p);
 
 /* Validates every field; on an error nothing changes, the previous parameters
  * stay, and the message names the field. Errors: NULL_POINTER, STRUCT_SIZE,
- * INVALID_ARGUMENT. */
+ * INVALID_ARGUMENT (reserved1 not 0 included). Writes nothing the caller owns. */
 FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p);
 
 /* ---- The volume ------------------------------------------------------------ */
@@ -231,12 +236,15 @@ typedef struct ffseg_volume {
  * last row other than 0 0 0 1, a zero or non-finite slope, a non-finite
  * intercept: each is FFSEG_ERR_INVALID_VOLUME with a message. The buffer is
  * borrowed until the next set_volume or destroy and never written. Setting a
- * volume keeps the objects' meshes. */
+ * volume keeps the objects' meshes. On failure the engine keeps the volume it
+ * had before (so that volume's buffer stays borrowed) and writes nothing the
+ * caller owns. */
 FFSEG_API ffseg_status ffseg_set_volume(ffseg_engine* e, const ffseg_volume* v);
 
 /* Intensity (rescaled) at a point in world mm. mode: 0 nearest voxel,
  * 1 trilinear. Voxels beyond the grid read as 0. Errors: MISUSE (no volume),
- * NULL_POINTER, INVALID_ARGUMENT (mode, non-finite point). */
+ * NULL_POINTER, INVALID_ARGUMENT (mode, non-finite point). On failure *value
+ * is left untouched. */
 #define FFSEG_SAMPLE_NEAREST 0
 #define FFSEG_SAMPLE_LINEAR 1
 FFSEG_API ffseg_status ffseg_sample(const ffseg_engine* e, const double point_mm[3],
@@ -246,7 +254,8 @@ FFSEG_API ffseg_status ffseg_sample(const ffseg_engine* e, const double point_mm
 /* Places object `object`'s cube-sphere mesh on a sphere (centre and radius in
  * world mm), replacing any previous mesh of that object. Errors: MISUSE (no
  * volume yet), OBJECT_OUT_OF_RANGE, INVALID_ARGUMENT (radius <= 0 or
- * non-finite values), SPHERE_OUTSIDE (the ball does not meet the grid). */
+ * non-finite values), SPHERE_OUTSIDE (the ball does not meet the grid). On
+ * failure the object keeps the mesh it had (or stays unplaced). */
 FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object,
                                          const double center_mm[3], double radius_mm);
 
@@ -284,7 +293,10 @@ typedef struct ffseg_step_info {
  * or ffseg_set_params / ffseg_set_volume change what it deforms towards, so
  * stepping past convergence is harmless. info may be NULL; otherwise info->struct_size must be
  * set. Errors: MISUSE (no volume or no object), NUMERIC (mesh unchanged),
- * ROI_TOO_LARGE, NOT_IMPLEMENTED (a target mode this build lacks). */
+ * ROI_TOO_LARGE, NOT_IMPLEMENTED (a target mode this build lacks),
+ * STRUCT_SIZE (info->struct_size smaller than this header's). *info is written
+ * only when the call returns FFSEG_OK or FFSEG_CONVERGED; on an error it is
+ * left untouched. */
 FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info);
 
 /* Copies object `object`'s mesh out: xyz gets 3 floats (mm) per vertex, tris
@@ -292,7 +304,10 @@ FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info);
  * split in two; a closed, consistently oriented 2-manifold). With xyz and tris
  * both NULL only the counts are written. A buffer smaller than the counts:
  * BUFFER_TOO_SMALL, with the counts written. Capacities are in vertices and
- * triangles. Errors also: OBJECT_OUT_OF_RANGE, MISUSE (object not placed). */
+ * triangles. Either buffer alone may be NULL (only the other is filled), and
+ * so may n_vertices and n_tris. Errors also: OBJECT_OUT_OF_RANGE, MISUSE
+ * (object not placed). On BUFFER_TOO_SMALL only the counts are written, xyz
+ * and tris are untouched; on any other error nothing is written. */
 FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object, float* xyz,
                                           size_t xyz_capacity, uint32_t* tris,
                                           size_t tri_capacity, size_t* n_vertices,
@@ -303,7 +318,7 @@ FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object
  * (i,j,k) is mask[i*strides[0] + j*strides[1] + k*strides[2]] (bytes, may be
  * negative); strides == NULL means contiguous (1, dims[0], dims[0]*dims[1]).
  * The caller guarantees the buffer covers the grid. Errors: MISUSE,
- * OBJECT_OUT_OF_RANGE, NULL_POINTER. */
+ * OBJECT_OUT_OF_RANGE, NULL_POINTER. On failure mask is untouched. */
 FFSEG_API ffseg_status ffseg_rasterize(const ffseg_engine* e, uint32_t object, uint8_t* mask,
                                        const int64_t strides[3]);
 
