@@ -6,6 +6,8 @@
 #   make bench   deps + build + benchmarks (tables on stdout)
 #   make check-python  the Python module's tests alone (pytest under /usr/bin/python3)
 #   make install PREFIX=/usr/local   (library, header, ffseg tool, Python package)
+#   make check-bindings  install into build-bindings/prefix; build and run the C (pkg-config),
+#                        C/C++ (find_package), Rust and C# consumers and their tests against it
 BUILD ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 PREFIX ?= /usr/local
@@ -16,8 +18,11 @@ DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev doctest-dev zlib1g-dev l
 # Python module, batch and image formats (issue 18): the tests run under /usr/bin/python3.
 DEB_PACKAGES += python3-numpy python3-pytest python3-distributed python3-nibabel python3-pydicom \
                 libgdcm-dev
+# Rust and C# bindings, ABI check (issue 17): Debian's rustc 1.63 / cargo, Mono, libabigail.
+DEB_PACKAGES += rustc cargo mono-mcs mono-runtime abigail-tools
 
-.PHONY: all build deps test demo bench install clean fuzz fuzz-smoke check-sanitizers check-portable check-python
+.PHONY: all build deps test demo bench install clean fuzz fuzz-smoke check-sanitizers check-portable check-python \
+        check-bindings check-abi abi-baseline
 
 all: build
 
@@ -70,6 +75,12 @@ bench: deps
 
 install: build
 	cmake --install $(BUILD) --prefix $(PREFIX)
+
+# Only what is installed is built for it (the libraries and the ffseg tool).
+BINDINGS_WORK ?= build-bindings
+check-bindings: deps $(BUILD)/CMakeCache.txt
+	cmake --build $(BUILD) -j $(JOBS) --target ffseg_static ffseg_shared ffseg_cli
+	bindings/check.sh $(BUILD) $(BINDINGS_WORK)
 
 clean:
 	rm -rf $(BUILD)
