@@ -2,13 +2,19 @@
 # make check-bindings: install ffseg into a temporary prefix and build and run,
 # against that prefix only, what a vendor would: the C examples through
 # pkg-config (shared and static), the C and C++ examples through
-# find_package(ffseg). Usage: bindings/check.sh BUILD_DIR WORK_DIR
+# find_package(ffseg), the Rust crates' tests and examples, the C# wrapper's
+# tests and examples. Usage: bindings/check.sh BUILD_DIR WORK_DIR
 set -euo pipefail
 BUILD=$(realpath "$1")
 WORK=$(realpath -m "$2")
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 P=$WORK/prefix
 CC=${CC:-cc}
+# Debian's toolchain when it is there (rustc 1.63, the version the crates promise),
+# whatever else may come first on PATH.
+CARGO=${CARGO:-$(command -v /usr/bin/cargo || command -v cargo)}
+export RUSTC=${RUSTC:-$(command -v /usr/bin/rustc || command -v rustc)}
+export RUSTDOC=${RUSTDOC:-$(command -v /usr/bin/rustdoc || command -v rustdoc)}
 
 step() { printf '\n== check-bindings: %s\n' "$*"; }
 fail() { echo "check-bindings: FAILED: $*" >&2; exit 1; }
@@ -60,6 +66,13 @@ if cmake -S "$WORK/cmake-major" -B "$WORK/cmake-major/b" -DCMAKE_PREFIX_PATH="$P
   fail "find_package(ffseg 1.0) accepted version $VERSION"
 fi
 
+step "Rust: ffseg-sys and ffseg ($("$RUSTC" --version))"
+export LD_LIBRARY_PATH=$P/lib
+(cd "$SRC/bindings/rust" && "$CARGO" test --offline --target-dir "$WORK/cargo")
+step "Rust examples"
+(cd "$SRC/examples/rust" && "$CARGO" build --offline --release --target-dir "$WORK/cargo-examples" -q)
+for ex in roundtrip grow; do "$WORK/cargo-examples/release/$ex"; done
+unset LD_LIBRARY_PATH
 
 echo
 echo "check-bindings: all passed"

@@ -1,0 +1,147 @@
+//! The safe interface against the real library: workspace alignment and size,
+//! errors carrying status and message, a round trip, a segmentation grown to
+//! its target, refusals that leave the engine usable, reuse after drop.
+use ffseg::{sys, Config, Engine, Params, Volume, Workspace};
+
+fn small_config(n: u32) -> Config {
+    let mut c = Config::default();
+    c.mesh_resolution = n;
+    c
+}
+
+// An ellipsoid of ones (semi-axes in mm) on a grid of the given spacing.
+fn ellipsoid(dims: [usize; 3], spacing: [f64; 3], centre: [f64; 3], axes: [f64; 3]) -> Vec<u8> {
+    let mut v = vec![0u8; dims[0] * dims[1] * dims[2]];
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let p = [i as f64 * spacing[0], j as f64 * spacing[1], k as f64 * spacing[2]];
+                let r2: f64 = (0..3).map(|a| ((p[a] - centre[a]) / axes[a]).powi(2)).sum();
+                v[i + dims[0] * (j + dims[1] * k)] = (r2 <= 1.0) as u8;
+            }
+        }
+    }
+    v
+}
+
+#[test]
+fn workspace_is_aligned_and_exactly_sized() {
+    let cfg = small_config(10);
+    let ws = Workspace::new(&cfg).unwrap();
+    assert_eq!(ws.as_ptr() as usize % 64, 0);
+    let mut bytes = 0usize;
+    assert_eq!(unsafe { sys::ffseg_workspace_size(&cfg, &mut bytes) }, sys::FFSEG_OK);
+    assert_eq!(ws.len(), bytes);
+    let bigger = Workspace::new(&small_config(20)).unwrap();
+    assert!(bigger.len() > ws.len());
+}
+
+#[test]
+fn errors_carry_status_and_message() {
+    let mut cfg = Config::default();
+    cfg.max_objects = 0;
+    let err = Workspace::new(&cfg).err().expect("max_objects = 0 is refused");
+    assert_eq!(err.status(), sys::FFSEG_ERR_INVALID_ARGUMENT);
+    assert!(err.message().contains("max_objects"), "message: {}", err.message());
+    assert!(err.to_string().contains("invalid argument"), "{}", err);
+
+    let mut ws = Workspace::new(&small_config(8)).unwrap();
+    let mut e = Engine::new(&mut ws).unwrap();
+    let err = e.init_sphere(0, [1.0, 1.0, 1.0], 1.0).unwrap_err();
+    assert_eq!(err.status(), sys::FFSEG_ERR_MISUSE);
+    assert!(err.message().contains("set_volume"), "message: {}", err.message());
+    let mut p = Params::default();
+    p.reserved1 = 7;
+    assert_eq!(e.set_params(&p).unwrap_err().status(), sys::FFSEG_ERR_INVALID_ARGUMENT);
+}
+
+#[test]
+fn round_trip_places_a_sphere_and_reads_it_back() {
+    let n = 12u32;
+    // The voxels are declared before the engine: it borrows them until it is dropped.
+    let dims = [40usize, 36, 30];
+    let voxels = vec![7i16; dims[0] * dims[1] * dims[2]];
+    let mut ws = Workspace::new(&small_config(n)).unwrap();
+    let mut e = Engine::new(&mut ws).unwrap();
+    e.set_volume(&Volume::new(&voxels, dims).with_spacing([1.0, 1.0, 1.5]).with_rescale(2.0, 1.0)).unwrap();
+    assert_eq!(e.sample([10.0, 10.0, 15.0], false).unwrap(), 15.0); // 2 * 7 + 1
+    let (c, r) = ([20.0, 18.0, 22.0], 8.0);
+    e.init_sphere(0, c, r).unwrap();
+    let m = e.mesh(0).unwrap();
+    assert_eq!(m.vertices.len(), 6 * (n * n) as usize);
+    assert_eq!(m.triangles.len(), 2 * m.vertices.len() - 4);
+    for v in &m.vertices {
+        let d = ((v[0] as f64 - c[0]).powi(2) + (v[1] as f64 - c[1]).powi(2) + (v[2] as f64 - c[2]).powi(2)).sqrt();
+        assert!((d - r).abs() < 1e-4, "vertex {:?} is {} mm from the centre", v, d);
+    }
+    assert!(m.triangles.iter().flatten().all(|&t| (t as usize) < m.vertices.len()));
+    let mut mask = vec![9u8; voxels.len()];
+    e.rasterize(0, &mut mask).unwrap();
+    assert!(mask.iter().all(|&b| b <= 1));
+    let inside_mm3 = mask.iter().filter(|&&b| b == 1).count() as f64 * 1.5;
+    let ball = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+    assert!((inside_mm3 - ball).abs() < 0.1 * ball, "{} mm^3 inside, ball {}", inside_mm3, ball);
+}
+
+#[test]
+fn a_small_sphere_grows_onto_an_ellipsoid() {
+    let (dims, spacing) = ([56usize, 48, 40], [1.0, 1.0, 1.25]);
+    let (centre, axes) = ([28.0, 24.0, 25.0], [18.0, 13.0, 11.0]);
+    let truth = ellipsoid(dims, spacing, centre, axes);
+    let mut ws = Workspace::new(&small_config(16)).unwrap();
+    let mut e = Engine::new(&mut ws).unwrap();
+    e.set_volume(&Volume::new(&truth, dims).with_spacing(spacing)).unwrap();
+    e.init_sphere(0, centre, 4.0).unwrap();
+    let before = e.mesh(0).unwrap();
+    let last = e.run(300).unwrap();
+    assert!(last.converged, "not converged after {} steps", last.info.step_index);
+    assert!(last.info.step_index > 1);
+    let mut mask = vec![0u8; truth.len()];
+    e.rasterize(0, &mut mask).unwrap();
+    let both = truth.iter().zip(&mask).filter(|(a, b)| **a == 1 && **b == 1).count();
+    let dice = 2.0 * both as f64 / (truth.iter().filter(|&&a| a == 1).count() + mask.iter().filter(|&&b| b == 1).count()) as f64;
+    assert!(dice > 0.95, "Dice {}", dice);
+    // It moved: no vertex is still on the 4 mm starting sphere.
+    let after = e.mesh(0).unwrap();
+    assert_eq!(after.vertices.len(), before.vertices.len());
+    let r_min = after
+        .vertices
+        .iter()
+        .map(|v| ((v[0] as f64 - centre[0]).powi(2) + (v[1] as f64 - centre[1]).powi(2) + (v[2] as f64 - centre[2]).powi(2)).sqrt())
+        .fold(f64::INFINITY, f64::min);
+    assert!(r_min > 8.0, "closest vertex {} mm from the centre", r_min);
+}
+
+#[test]
+fn refused_calls_leave_the_engine_usable() {
+    let voxels = vec![1u8; 20 * 20 * 20];
+    let mut ws = Workspace::new(&small_config(8)).unwrap();
+    let mut e = Engine::new(&mut ws).unwrap();
+    // dims claim more voxels than the slice holds: refused, nothing read.
+    let err = e.set_volume(&Volume::new(&voxels, [20, 20, 21])).unwrap_err();
+    assert_eq!(err.status(), sys::FFSEG_ERR_INVALID_VOLUME);
+    assert!(!err.message().is_empty());
+    let mut mask = vec![0u8; voxels.len()];
+    assert_eq!(e.rasterize(0, &mut mask).unwrap_err().status(), sys::FFSEG_ERR_MISUSE);
+    e.set_volume(&Volume::new(&voxels, [20, 20, 20])).unwrap();
+    assert_eq!(e.init_sphere(1, [10.0, 10.0, 10.0], 3.0).unwrap_err().status(), sys::FFSEG_ERR_OBJECT_OUT_OF_RANGE);
+    assert_eq!(e.init_sphere(0, [500.0, 10.0, 10.0], 3.0).unwrap_err().status(), sys::FFSEG_ERR_SPHERE_OUTSIDE);
+    e.init_sphere(0, [10.0, 10.0, 10.0], 3.0).unwrap();
+    let mut short = vec![0u8; voxels.len() - 1];
+    assert_eq!(e.rasterize(0, &mut short).unwrap_err().status(), sys::FFSEG_ERR_BUFFER_TOO_SMALL);
+    assert!(short.iter().all(|&b| b == 0), "a refused rasterize wrote the mask");
+    e.rasterize(0, &mut mask).unwrap();
+    assert!(mask.iter().any(|&b| b == 1));
+}
+
+#[test]
+fn dropping_the_engine_frees_the_workspace_for_another() {
+    let mut ws = Workspace::new(&small_config(8)).unwrap();
+    let voxels = vec![0.5f32; 16 * 16 * 16];
+    for round in 0..3 {
+        let mut e = Engine::new(&mut ws).unwrap();
+        e.set_volume(&Volume::new(&voxels, [16, 16, 16])).unwrap();
+        e.init_sphere(0, [8.0, 8.0, 8.0], 2.0 + round as f64).unwrap();
+        assert_eq!(e.mesh(0).unwrap().vertices.len(), 6 * 64);
+    }
+}
