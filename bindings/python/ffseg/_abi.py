@@ -64,6 +64,7 @@ class Params(C.Structure):
         ("bin_radius", C.c_double),
         ("bin_separation", C.c_double),
         ("partial_volume_steps", C.c_uint32),
+        ("reserved1", C.c_uint32),
     ]
 
 
