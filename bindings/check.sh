@@ -74,5 +74,23 @@ step "Rust examples"
 for ex in roundtrip grow; do "$WORK/cargo-examples/release/$ex"; done
 unset LD_LIBRARY_PATH
 
+step "C#: Ffseg.dll under $(mono --version | head -n 1 | cut -d'(' -f1)"
+CS=$WORK/csharp
+mkdir -p "$CS/runtime"
+# Only the runtime files, as a runtime package installs them: the soname and
+# the file it points to, no libffseg.so development link.
+cp -a "$P"/lib/libffseg.so.0* "$CS/runtime/"
+[ ! -e "$CS/runtime/libffseg.so" ] || fail "runtime directory holds the development link"
+mcs -unsafe -warnaserror -target:library -out:"$CS/Ffseg.dll" "$SRC/bindings/csharp/Ffseg.cs"
+mcs -unsafe -warnaserror -r:"$CS/Ffseg.dll" -out:"$CS/Tests.exe" "$SRC/bindings/csharp/tests/Tests.cs"
+$CC -std=c99 -I"$P/include" -I"$SRC/abi" "$SRC/abi/layout.c" -o "$CS/layout"
+"$CS/layout" > "$CS/layout.txt"
+(cd "$CS" && LD_LIBRARY_PATH=$CS/runtime mono Tests.exe layout.txt)
+step "C# examples"
+for ex in Roundtrip Grow; do
+  mcs -warnaserror -r:"$CS/Ffseg.dll" -out:"$CS/$ex.exe" "$SRC/examples/csharp/$ex.cs"
+  (cd "$CS" && LD_LIBRARY_PATH=$CS/runtime mono "$ex.exe")
+done
+
 echo
 echo "check-bindings: all passed"

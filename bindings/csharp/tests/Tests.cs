@@ -1,0 +1,256 @@
+// Tests of the C# wrapper against the real library, run under mono:
+//   mono Tests.exe LAYOUT_FILE      (LAYOUT_FILE: the output of abi/layout.c)
+// Prints one line per test and "N passed, N failed"; exits 1 if any failed.
+using System;
+using System.Collections.Generic;
+using System.IO;
+using System.Reflection;
+using System.Runtime.InteropServices;
+using Ffseg;
+
+static class Tests {
+  static void Assert(bool ok, string what) {
+    if (!ok) throw new Exception("assertion failed: " + what);
+  }
+
+  static FfsegException Throws(Action a) {
+    try {
+      a();
+    } catch (FfsegException ex) {
+      return ex;
+    }
+    throw new Exception("expected an FfsegException");
+  }
+
+  // ffseg_volume -> Volume, mean_displacement_mm -> MeanDisplacementMm.
+  static string Pascal(string snake) {
+    string r = "";
+    foreach (string w in snake.Split('_'))
+      if (w.Length > 0) r += char.ToUpperInvariant(w[0]) + w.Substring(1);
+    return r;
+  }
+
+  static readonly Dictionary<string, Type> Structs = new Dictionary<string, Type> {
+    {"ffseg_config", typeof(Config)}, {"ffseg_params", typeof(Params)},
+    {"ffseg_volume", typeof(Volume)}, {"ffseg_step_info", typeof(StepInfo)},
+  };
+
+  static unsafe int UnsafeSize(Type t) {
+    if (t == typeof(Config)) return sizeof(Config);
+    if (t == typeof(Params)) return sizeof(Params);
+    if (t == typeof(Volume)) return sizeof(Volume);
+    return sizeof(StepInfo);
+  }
+
+  static void LayoutMatchesTheCCompiler(string layoutFile) {
+    var seen = new HashSet<string>();
+    int lines = 0;
+    var wrong = new List<string>();
+    foreach (string line in File.ReadAllLines(layoutFile)) {
+      string[] w = line.Split(' ');
+      ++lines;
+      Type t = Structs[w[1]];
+      if (w[0] == "struct") {
+        int size = int.Parse(w[2]);
+        if (Marshal.SizeOf(t) != size || UnsafeSize(t) != size)
+          wrong.Add(w[1] + ": C sizeof " + size + ", C# " + Marshal.SizeOf(t) + " / " + UnsafeSize(t));
+        continue;
+      }
+      string name = Pascal(w[2]);
+      FieldInfo f = t.GetField(name);
+      if (f == null) { wrong.Add(w[1] + "." + w[2] + ": no field " + name + " in " + t.Name); continue; }
+      seen.Add(t.Name + "." + name);
+      long off = Marshal.OffsetOf(t, name).ToInt64();
+      int fsize = Marshal.SizeOf(f.FieldType);  // a fixed buffer's type spans the whole array
+      if (off != long.Parse(w[3]) || fsize != int.Parse(w[4]))
+        wrong.Add(w[1] + "." + w[2] + ": C offset/size " + w[3] + "/" + w[4] + ", C# " + off + "/" + fsize);
+    }
+    foreach (Type t in Structs.Values)
+      foreach (FieldInfo f in t.GetFields(BindingFlags.Public | BindingFlags.Instance))
+        if (!seen.Contains(t.Name + "." + f.Name)) wrong.Add(t.Name + "." + f.Name + ": not in the header");
+    Assert(lines >= 44, "layout file has " + lines + " lines");
+    Assert(wrong.Count == 0, string.Join("; ", wrong.ToArray()));
+  }
+
+  static void StructsAreBlittable() {
+    // Pinning refuses any type the marshaller would have to copy.
+    foreach (Type t in Structs.Values) {
+      GCHandle h = GCHandle.Alloc(Activator.CreateInstance(t), GCHandleType.Pinned);
+      h.Free();
+    }
+  }
+
+  static Config Small(uint n) {
+    Config c = Config.Default();
+    c.MeshResolution = n;
+    return c;
+  }
+
+  static void DefaultsAndStatusText() {
+    Assert(Library.Version >= 100, "version " + Library.Version);
+    Config c = Config.Default();
+    Assert(c.StructSize == (uint)Marshal.SizeOf(typeof(Config)), "config struct_size");
+    Params p = Params.Default();
+    Assert(p.StructSize == (uint)Marshal.SizeOf(typeof(Params)) && p.Reserved1 == 0, "params struct_size, reserved1");
+    Assert(p.StepSize > 0 && p.StepSize <= 1, "default step size");
+    Assert(Status.Text(Status.ErrInvalidArgument) == "invalid argument", Status.Text(Status.ErrInvalidArgument));
+    Assert(Status.Text(-999) == "unknown status", "unknown status");
+  }
+
+  static void WorkspaceIsAligned() {
+    using (var e = new Engine(Small(10))) {
+      Assert(e.WorkspaceAddress.ToInt64() % 64 == 0, "workspace at " + e.WorkspaceAddress);
+      using (var big = new Engine(Small(20))) Assert(big.WorkspaceBytes > e.WorkspaceBytes, "sizes grow with n");
+    }
+  }
+
+  static void ErrorsCarryStatusAndMessage() {
+    Config c = Config.Default();
+    c.MaxObjects = 0;
+    FfsegException ex = Throws(() => new Engine(c));
+    Assert(ex.Status == Status.ErrInvalidArgument, "status " + ex.Status);
+    Assert(ex.Detail.Contains("max_objects"), ex.Detail);
+    using (var e = new Engine(Small(8))) {
+      ex = Throws(() => e.InitSphere(0, new double[] {1, 1, 1}, 1));
+      Assert(ex.Status == Status.ErrMisuse && ex.Detail.Contains("set_volume"), ex.Message);
+      Params p = Params.Default();
+      p.Reserved1 = 3;
+      Assert(Throws(() => e.SetParams(p)).Status == Status.ErrInvalidArgument, "reserved1 refused");
+    }
+  }
+
+  static void ShortAffineIsRefusedBeforeTheLibrarySeesIt() {
+    using (var e = new Engine(Small(8))) {
+      bool threw = false;
+      try {
+        e.SetVolume(new byte[8 * 8 * 8], new long[] {8, 8, 8}, new double[9]);
+      } catch (ArgumentException) {
+        threw = true;
+      }
+      Assert(threw && !e.VolumePinned, "a 9-value affine");
+    }
+  }
+
+  static void RoundTrip() {
+    const uint n = 12;
+    var voxels = new short[40 * 36 * 30];
+    using (var e = new Engine(Small(n))) {
+      e.SetVolume(voxels, new long[] {40, 36, 30}, Engine.Spacing(1, 1, 1.5));
+      Assert(e.VolumePinned, "voxels pinned while set");
+      double[] c = {20, 18, 22};
+      const double r = 8;
+      e.InitSphere(0, c, r);
+      float[] xyz;
+      uint[] tris;
+      e.ExtractMesh(0, out xyz, out tris);
+      Assert(xyz.Length == 3 * 6 * n * n, "vertex count " + xyz.Length / 3);
+      Assert(tris.Length / 3 == 2 * (xyz.Length / 3) - 4, "triangle count " + tris.Length / 3);
+      for (int v = 0; v < xyz.Length / 3; ++v) {
+        double dx = xyz[3 * v] - c[0], dy = xyz[3 * v + 1] - c[1], dz = xyz[3 * v + 2] - c[2];
+        Assert(Math.Abs(Math.Sqrt(dx * dx + dy * dy + dz * dz) - r) < 1e-4, "vertex on the sphere");
+      }
+      var mask = new byte[voxels.Length];
+      e.Rasterize(0, mask);
+      int inside = 0;
+      foreach (byte b in mask) inside += b;
+      double ball = 4.0 / 3.0 * Math.PI * r * r * r;
+      Assert(Math.Abs(inside * 1.5 - ball) < 0.1 * ball, inside * 1.5 + " mm^3 inside, ball " + ball);
+      Assert(Throws(() => e.Rasterize(0, new byte[mask.Length - 1])).Status == Status.ErrBufferTooSmall, "short mask");
+    }
+  }
+
+  static byte[] Ellipsoid(long[] d, double[] s, double[] c, double[] a) {
+    var v = new byte[d[0] * d[1] * d[2]];
+    for (long k = 0; k < d[2]; ++k)
+      for (long j = 0; j < d[1]; ++j)
+        for (long i = 0; i < d[0]; ++i) {
+          double x = (i * s[0] - c[0]) / a[0], y = (j * s[1] - c[1]) / a[1], z = (k * s[2] - c[2]) / a[2];
+          v[i + d[0] * (j + d[1] * k)] = (byte)(x * x + y * y + z * z <= 1 ? 1 : 0);
+        }
+    return v;
+  }
+
+  static void SphereGrowsOntoAnEllipsoid() {
+    long[] dims = {56, 48, 40};
+    double[] s = {1, 1, 1.25}, c = {28, 24, 25}, a = {18, 13, 11};
+    byte[] truth = Ellipsoid(dims, s, c, a);
+    using (var e = new Engine(Small(16))) {
+      e.SetVolume(truth, dims, Engine.Spacing(s[0], s[1], s[2]));
+      e.InitSphere(0, c, 4);
+      bool converged;
+      StepInfo last = e.Run(300, out converged);
+      Assert(converged && last.StepIndex > 1, "converged after " + last.StepIndex + " steps");
+      var mask = new byte[truth.Length];
+      e.Rasterize(0, mask);
+      long both = 0, nt = 0, nm = 0;
+      for (int i = 0; i < mask.Length; ++i) {
+        both += truth[i] & mask[i];
+        nt += truth[i];
+        nm += mask[i];
+      }
+      double dice = 2.0 * both / (nt + nm);
+      Assert(dice > 0.95, "Dice " + dice);
+    }
+  }
+
+  static void FailedSetVolumeKeepsThePreviousOnePinned() {
+    using (var e = new Engine(Small(8))) {
+      var good = new byte[20 * 20 * 20];
+      for (int i = 0; i < good.Length; ++i) good[i] = 1;
+      e.SetVolume(good, new long[] {20, 20, 20});
+      FfsegException ex = Throws(() => e.SetVolume(new byte[10], new long[] {20, 20, 20}));
+      Assert(ex.Status == Status.ErrInvalidVolume && ex.Detail.Length > 0, ex.Message);
+      Assert(e.VolumePinned, "the engine's volume stays pinned");
+      Assert(e.Sample(new double[] {5, 5, 5}, false) == 1, "the previous volume is still read");
+      e.InitSphere(0, new double[] {10, 10, 10}, 3);
+      e.Rasterize(0, new byte[good.Length]);
+    }
+  }
+
+  static void DisposeReleasesEverything() {
+    var e = new Engine(Small(8));
+    e.SetVolume(new float[16 * 16 * 16], new long[] {16, 16, 16});
+    e.Dispose();
+    Assert(!e.VolumePinned, "unpinned by Dispose");
+    bool threw = false;
+    try {
+      e.InitSphere(0, new double[] {8, 8, 8}, 2);
+    } catch (ObjectDisposedException) {
+      threw = true;
+    }
+    Assert(threw, "a call after Dispose");
+    e.Dispose();  // twice is fine
+  }
+
+  static int Main(string[] args) {
+    if (args.Length != 1) {
+      Console.Error.WriteLine("usage: mono Tests.exe LAYOUT_FILE (the output of abi/layout.c)");
+      return 2;
+    }
+    var tests = new List<KeyValuePair<string, Action>> {
+      new KeyValuePair<string, Action>("layout matches the C compiler", () => LayoutMatchesTheCCompiler(args[0])),
+      new KeyValuePair<string, Action>("structs are blittable", StructsAreBlittable),
+      new KeyValuePair<string, Action>("defaults and status text", DefaultsAndStatusText),
+      new KeyValuePair<string, Action>("workspace is 64-byte aligned", WorkspaceIsAligned),
+      new KeyValuePair<string, Action>("errors carry status and message", ErrorsCarryStatusAndMessage),
+      new KeyValuePair<string, Action>("a 9-value affine is refused", ShortAffineIsRefusedBeforeTheLibrarySeesIt),
+      new KeyValuePair<string, Action>("round trip", RoundTrip),
+      new KeyValuePair<string, Action>("a sphere grows onto an ellipsoid", SphereGrowsOntoAnEllipsoid),
+      new KeyValuePair<string, Action>("a failed SetVolume keeps the previous volume pinned", FailedSetVolumeKeepsThePreviousOnePinned),
+      new KeyValuePair<string, Action>("Dispose releases everything", DisposeReleasesEverything),
+    };
+    int passed = 0, failed = 0;
+    foreach (var t in tests) {
+      try {
+        t.Value();
+        ++passed;
+        Console.WriteLine("ok   " + t.Key);
+      } catch (Exception ex) {
+        ++failed;
+        Console.WriteLine("FAIL " + t.Key + ": " + ex.Message);
+      }
+    }
+    Console.WriteLine(passed + " passed, " + failed + " failed");
+    return failed == 0 ? 0 : 1;
+  }
+}
