@@ -6,6 +6,8 @@
 #   make bench   deps + build + benchmarks (tables on stdout)
 #   make check-python  the Python module's tests alone (pytest under /usr/bin/python3)
 #   make install PREFIX=/usr/local   (library, header, ffseg tool, Python package)
+#   make check-abi     rebuild libffseg.so with debug info (build-abi/), abidiff it against abi/
+#   make abi-baseline  rewrite abi/libffseg.so.0.abi (only after a version bump if the ABI changed)
 #   make check-bindings  install into build-bindings/prefix; build and run the C (pkg-config),
 #                        C/C++ (find_package), Rust and C# consumers and their tests against it
 BUILD ?= build
@@ -81,6 +83,17 @@ BINDINGS_WORK ?= build-bindings
 check-bindings: deps $(BUILD)/CMakeCache.txt
 	cmake --build $(BUILD) -j $(JOBS) --target ffseg_static ffseg_shared ffseg_cli
 	bindings/check.sh $(BUILD) $(BINDINGS_WORK)
+
+# The ABI: only the shared library is built, with debug information for abidw.
+ABI_BUILD ?= build-abi
+$(ABI_BUILD)/libffseg.so.0: FORCE
+	cmake -S . -B $(ABI_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo
+	cmake --build $(ABI_BUILD) -j $(JOBS) --target ffseg_shared
+check-abi: deps $(ABI_BUILD)/libffseg.so.0
+	abi/check.sh $(ABI_BUILD)
+abi-baseline: deps $(ABI_BUILD)/libffseg.so.0
+	abi/check.sh --update $(ABI_BUILD)
+FORCE:
 
 clean:
 	rm -rf $(BUILD)
