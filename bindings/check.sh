@@ -52,7 +52,7 @@ if $CC "$SRC/examples/grow.c" -o "$WORK/pc/grow_nolibsprivate" $(pkg-config --cf
 fi
 # shellcheck disable=SC2086
 $CC -std=c99 "$SRC/examples/grow.c" -o "$WORK/pc/grow_static" $(pkg-config --cflags ffseg) $STATIC_LIBS
-if ldd "$WORK/pc/grow_static" | grep -q libffseg; then fail "grow_static still needs libffseg.so"; fi
+if ldd "$WORK/pc/grow_static" | grep libffseg > /dev/null; then fail "grow_static still needs libffseg.so"; fi
 "$WORK/pc/grow_static"
 
 step "CMake: find_package(ffseg 0.1) and ffseg::ffseg / ffseg::ffseg_static"
@@ -73,6 +73,12 @@ step "Rust examples"
 (cd "$SRC/examples/rust" && "$CARGO" build --offline --release --target-dir "$WORK/cargo-examples" -q)
 for ex in roundtrip grow; do "$WORK/cargo-examples/release/$ex"; done
 unset LD_LIBRARY_PATH
+# build.rs's other route: no pkg-config, FFSEG_LIB_DIR, and the archive.
+step "Rust examples through FFSEG_LIB_DIR, FFSEG_STATIC=1"
+(cd "$SRC/examples/rust" && env -u PKG_CONFIG_PATH FFSEG_LIB_DIR="$P/lib" FFSEG_STATIC=1 \
+   "$CARGO" build --offline --release --target-dir "$WORK/cargo-static" -q)
+if ldd "$WORK/cargo-static/release/grow" | grep libffseg > /dev/null; then fail "FFSEG_STATIC=1 still links libffseg.so"; fi
+"$WORK/cargo-static/release/grow"
 
 step "C#: Ffseg.dll under $(mono --version | head -n 1 | cut -d'(' -f1)"
 CS=$WORK/csharp
