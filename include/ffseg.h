@@ -10,7 +10,8 @@
  *  - every struct crossing the boundary starts with uint32_t struct_size; fields
  *    are only ever appended; the library reads min(struct_size, its own size),
  *    and *_init_default() fills one completely; no struct has implicit padding
- *    (reserved fields fill it), so an appended field always changes sizeof;
+ *    on 64-bit targets (reserved fields fill it), so an appended field always
+ *    changes sizeof;
  *  - every call returns ffseg_status: 0 success, > 0 a non-error outcome,
  *    < 0 an error; error numbers never change once released;
  *  - nothing is ever allocated: the caller asks for the workspace size, hands
