@@ -1,5 +1,5 @@
 // Shared pieces of the `ffseg` command-line tool: errors and exit codes,
-// option parsing, voxel access on NIfTI images, grids, files and directories.
+// option parsing, voxel access on images, grids, files and directories.
 // The tool talks to the engine through include/ffseg.h only.
 #ifndef FFSEG_CLI_CLI_H
 #define FFSEG_CLI_CLI_H
@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "image_io.h"
 #include "nifti.h"
 #include "report_json.h"
 
@@ -57,8 +58,10 @@ int64_t parse_int(const std::string& s, const std::string& what, int64_t lo, int
 std::string format_double(double v, int digits = 6);  // "%.*g"
 
 // ---- images -------------------------------------------------------------------
-// Reads a NIfTI-1 file or fails with kExitInput ("cannot read PATH: reason").
-ffseg_tools::NiftiImage read_image(const std::string& path);
+// Reads a NIfTI-1, NRRD, MetaImage file or a DICOM series directory (in the
+// tools' RAS frame, image_io.h) or fails with kExitInput ("cannot read PATH:
+// reason"); *format (may be null) gets the format.
+ffseg_tools::NiftiImage read_image(const std::string& path, ffseg_tools::ImageFormat* format = nullptr);
 
 // The rescaled value (slope * stored + intercept) of voxel idx.
 double voxel_value(const ffseg_tools::NiftiImage& img, size_t idx);

@@ -1,4 +1,4 @@
-// `ffseg info VOLUME`: what the reader sees in a NIfTI-1 file.
+// `ffseg info VOLUME`: what the reader sees in an image (NIfTI-1, NRRD, MetaImage, DICOM series).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,9 +11,11 @@ namespace ffseg_cli {
 const char* const kInfoUsage =
     "usage: ffseg info VOLUME\n"
     "\n"
-    "Prints the NIfTI-1 header as ffseg reads it: datatype, dimensions, voxel\n"
-    "spacing, the index-to-world affine and where it comes from (sform, qform or\n"
-    "pixdim), the orientation, the world extent of the voxel centres, the\n"
+    "Prints the image as ffseg reads it (NIfTI-1 .nii/.nii.gz, NRRD .nrrd/.nhdr,\n"
+    "MetaImage .mha/.mhd, or a directory holding one DICOM series): format,\n"
+    "datatype, dimensions, voxel spacing, the index-to-world affine in RAS mm and\n"
+    "where it comes from (sform, qform, pixdim, space directions, TransformMatrix,\n"
+    "DICOM positions), the orientation, the world extent of the voxel centres, the\n"
     "intensity scaling, the intensity range after scaling, and the number of\n"
     "non-zero voxels.\n"
     "\n"
@@ -48,7 +50,8 @@ int cmd_info(int argc, char** argv) {
     path = tok;
   }
   if (path.empty()) fail(kExitUsage, "missing VOLUME");
-  const ffseg_tools::NiftiImage img = read_image(path);
+  ffseg_tools::ImageFormat format;
+  const ffseg_tools::NiftiImage img = read_image(path, &format);
 
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   size_t nonzero = 0, nonfinite = 0;
@@ -66,6 +69,7 @@ int cmd_info(int argc, char** argv) {
 
   const uint64_t n = img.voxel_count();
   std::printf("file:         %s\n", path.c_str());
+  std::printf("format:       %s\n", ffseg_tools::image_format_name(format));
   std::printf("datatype:     %s (NIfTI code %d)", datatype_name(img.datatype), img.datatype);
   if (ffseg_tools::nifti_datatype_for_voxel_type(img.voxel_type) != img.datatype)
     std::printf(", read as %s", datatype_name(ffseg_tools::nifti_datatype_for_voxel_type(img.voxel_type)));
@@ -74,8 +78,11 @@ int cmd_info(int argc, char** argv) {
               static_cast<unsigned long long>(n));
   std::printf("spacing:      %s x %s x %s mm\n", format_double(img.spacing[0]).c_str(),
               format_double(img.spacing[1]).c_str(), format_double(img.spacing[2]).c_str());
-  std::printf("affine:       %s (sform_code %d %s, qform_code %d %s)\n", img.which_affine.c_str(),
-              img.sform_code, xform_name(img.sform_code), img.qform_code, xform_name(img.qform_code));
+  if (format == ffseg_tools::ImageFormat::Nifti)
+    std::printf("affine:       %s (sform_code %d %s, qform_code %d %s)\n", img.which_affine.c_str(),
+                img.sform_code, xform_name(img.sform_code), img.qform_code, xform_name(img.qform_code));
+  else
+    std::printf("affine:       %s (world frame RAS mm)\n", img.which_affine.c_str());
   for (int r = 0; r < 4; ++r)
     std::printf("              [ %10.4f %10.4f %10.4f %10.4f ]\n", img.index_to_world[4 * r],
                 img.index_to_world[4 * r + 1], img.index_to_world[4 * r + 2], img.index_to_world[4 * r + 3]);

@@ -297,7 +297,8 @@ const char* const kSegmentUsageText =
     "--max-steps is reached, and writes into DIR:\n"
     "  NAME.ply        each object's closed triangle mesh in world mm (format: --mesh-format)\n"
     "  labels.nii.gz   label map on the input grid: object k -> label k (or its\n"
-    "                  --truth-labels number); where objects overlap the first wins\n"
+    "                  --truth-labels number); where objects overlap the first wins;\n"
+    "                  labels.nrrd / labels.mha for NRRD / MetaImage input\n"
     "  overlay.png     axial, coronal and sagittal slices through each object's\n"
     "                  centre with every object's contour in its own colour\n"
     "                  (with --truth: the reference label as a dashed yellow contour)\n"
@@ -307,7 +308,8 @@ const char* const kSegmentUsageText =
     "place at the end: a failed or interrupted run leaves nothing behind.\n"
     "\n"
     "objects:\n"
-    "  --sphere X,Y,Z,R        centre in world mm (the NIfTI sform, else qform), radius in mm\n"
+    "  --sphere X,Y,Z,R        centre in world mm, radius in mm; world = RAS (the NIfTI sform,\n"
+    "                          else qform; NRRD, MetaImage and DICOM LPS converted)\n"
     "  --sphere-voxel I,J,K,R  centre in voxel indices (may be fractional), radius in mm\n"
     "  --sphere-from-label LABELS:L\n"
     "                          the evaluation-protocol sphere of label L of the label\n"
@@ -321,6 +323,7 @@ const char* const kSegmentUsageText =
     "output:\n"
     "  --out DIR               output directory (required); must not exist or be empty\n"
     "  --force                 replace a non-empty DIR\n"
+    "  --labels-format FMT     nifti, nrrd or metaimage (default: the input's; nifti for DICOM)\n"
     "  --mesh-format FMT       ply (binary little endian, default), stl (binary), obj, vtk\n"
     "                          (legacy ASCII POLYDATA)\n"
     "  -q, --quiet             no progress line (nor the --sphere-from-label lines)\n"
@@ -369,7 +372,8 @@ int cmd_segment(int argc, char** argv) {
   uint32_t mesh_resolution = kDefaultMeshResolution;
   int64_t max_steps = kDefaultMaxSteps, max_roi = -1;
   ffseg_tools::MeshFormat mesh_format = ffseg_tools::MeshFormat::Ply;
-  bool force = false, quiet = false, have_truth_labels = false;
+  bool force = false, quiet = false, have_truth_labels = false, have_labels_format = false;
+  ffseg_tools::ImageFormat labels_format = ffseg_tools::ImageFormat::Nifti;
   bool opt;
   while (args.next(&tok, &opt)) {
     if (!opt) {
@@ -403,6 +407,11 @@ int cmd_segment(int argc, char** argv) {
       params.target_mode = parse_target(v, tok);
     } else if (tok == "--names") {
       names_opt = args.value(tok);
+    } else if (tok == "--labels-format") {
+      const std::string v = args.value(tok);
+      if (!ffseg_tools::image_format_from_name(v, &labels_format) || labels_format == ffseg_tools::ImageFormat::Dicom)
+        fail(kExitUsage, "--labels-format: expected nifti, nrrd or metaimage, got '" + v + "'");
+      have_labels_format = true;
     } else if (tok == "--mesh-format") {
       const std::string v = args.value(tok);
       if (!ffseg_tools::mesh_format_from_name(v, &mesh_format))
@@ -466,7 +475,10 @@ int cmd_segment(int argc, char** argv) {
   install_interrupt_handlers();
 
   // ---- inputs -----------------------------------------------------------------
-  const ffseg_tools::NiftiImage img = read_image(volume_path);
+  ffseg_tools::ImageFormat in_format;
+  const ffseg_tools::NiftiImage img = read_image(volume_path, &in_format);
+  if (!have_labels_format && in_format != ffseg_tools::ImageFormat::Dicom) labels_format = in_format;
+  const std::string labels_file = ffseg_tools::label_file_name(labels_format);
   ffseg_tools::NiftiImage truth;
   std::vector<std::vector<uint8_t>> truth_masks;
   if (!truth_path.empty()) {
@@ -681,7 +693,7 @@ int cmd_segment(int argc, char** argv) {
       }
     }
   }
-  if (!ffseg_tools::nifti_write_file(tmp.path + "/labels.nii.gz", lab, &err)) fail(kExitFailure, err);
+  if (!ffseg_tools::image_write_file(tmp.path + "/" + labels_file, labels_format, lab, &err)) fail(kExitFailure, err);
   check_interrupted();
 
   // Overlay picture.
@@ -764,6 +776,7 @@ int cmd_segment(int argc, char** argv) {
   rep.set("command_line", std::move(cmdline));
   Json in = Json::object();
   in.set("path", volume_path);
+  in.set("format", ffseg_tools::image_format_name(in_format));
   in.set("dims", Json::array_of(img.dims, 3));
   in.set("spacing_mm", Json::array_of(img.spacing, 3));
   in.set("datatype", datatype_name(img.datatype));
@@ -808,7 +821,7 @@ int cmd_segment(int argc, char** argv) {
   for (const std::string& f : mesh_files) mf.push(f);
   outs.set("meshes", std::move(mf));
   outs.set("mesh_format", ffseg_tools::mesh_format_extension(mesh_format));
-  outs.set("labels", "labels.nii.gz");
+  outs.set("labels", labels_file);
   outs.set("overlay", "overlay.png");
   rep.set("outputs", std::move(outs));
   if (!write_text_file(tmp.path + "/report.json", rep.dump(), &err)) fail(kExitFailure, err);

@@ -98,11 +98,10 @@ std::string format_double(double v, int digits) {
 }
 
 // ---- images -------------------------------------------------------------------
-NiftiImage read_image(const std::string& path) {
+NiftiImage read_image(const std::string& path, ffseg_tools::ImageFormat* format) {
   NiftiImage img;
   std::string err;
-  if (!is_directory(path) && ffseg_tools::nifti_read_file(path, &img, &err)) return img;
-  if (is_directory(path)) err = "it is a directory";
+  if (ffseg_tools::image_read_file(path, &img, format, &err)) return img;
   fail(kExitInput, "cannot read " + path + ": " + err);
 }
 
