@@ -27,7 +27,7 @@ from . import _abi
 from ._abi import (CONVERGED, OK, STAGE_NAMES, TARGET_BINARY,  # noqa: F401
                    TARGET_INTENSITY)
 
-__all__ = ["Engine", "Error", "StepInfo", "segment", "library_path", "version",
+__all__ = ["Engine", "Error", "VolumeError", "StepInfo", "segment", "library_path", "version",
            "param_names", "TARGET_BINARY", "TARGET_INTENSITY", "STAGE_NAMES"]
 
 
@@ -42,6 +42,14 @@ class Error(Exception):
         self.call = call
         where = f"{call}: " if call else ""
         super().__init__(f"{where}{message} [{self.name}, status {self.status}]")
+
+
+class VolumeError(Error, ValueError):
+    """An array set_volume cannot read as it is (status INVALID_VOLUME): also a
+    ValueError, so numpy-style code that catches that sees it too."""
+
+    def __init__(self, message):
+        super().__init__(-5, message, "set_volume")
 
 
 # ---- the library ---------------------------------------------------------------
@@ -132,22 +140,22 @@ def _volume_descriptor(array, affine, rescale_slope, rescale_intercept):
     are (negative, padded or unaligned are all fine), the readable span
     computed from them."""
     if not isinstance(array, _np.ndarray):
-        raise TypeError("ffseg: the volume must be a numpy.ndarray (got %s)" % type(array).__name__)
+        raise VolumeError("the volume must be a numpy.ndarray (got %s)" % type(array).__name__)
     if array.ndim != 3:
-        raise ValueError(f"ffseg: the volume must be 3-D (array[i, j, k]), got {array.ndim}-D shape {array.shape}")
+        raise VolumeError(f"the volume must be 3-D (array[i, j, k]), got {array.ndim}-D shape {array.shape}")
     dt = array.dtype
     if dt.byteorder not in ("=", "|") and dt != dt.newbyteorder("="):
-        raise ValueError(f"ffseg: the volume's dtype {dt.str} is not in native byte order; "
+        raise VolumeError(f"the volume's dtype {dt.str} is not in native byte order; "
                          "use array.astype(array.dtype.newbyteorder('='))")
     code = _DTYPES.get(_np.dtype(dt.type) if dt.isnative else None)
     if code is None or not dt.isnative:
-        raise ValueError(f"ffseg: unsupported voxel dtype {dt} (supported: uint8, int16, uint16, "
+        raise VolumeError(f"unsupported voxel dtype {dt} (supported: uint8, int16, uint16, "
                          "int32, float32, float64; convert with array.astype(...))")
     if array.size == 0:
-        raise ValueError(f"ffseg: the volume is empty (shape {array.shape})")
+        raise VolumeError(f"the volume is empty (shape {array.shape})")
     A = _np.asarray(affine, dtype=_np.float64)
     if A.shape != (4, 4):
-        raise ValueError(f"ffseg: the affine must be 4x4, got shape {A.shape}")
+        raise VolumeError(f"the affine must be 4x4, got shape {A.shape}")
     item = dt.itemsize
     base = array.__array_interface__["data"][0]
     lo = hi = 0
@@ -296,7 +304,12 @@ class Engine:
         change it while stepping); affine: 4x4 voxel centre -> world mm;
         value = rescale_slope * stored + rescale_intercept."""
         v = _volume_descriptor(array, affine, rescale_slope, rescale_intercept)
-        _check(_lib.ffseg_set_volume(self._handle(), _C.byref(v)), "ffseg_set_volume", self._e)
+        try:
+            _check(_lib.ffseg_set_volume(self._handle(), _C.byref(v)), "ffseg_set_volume", self._e)
+        except Error as ex:
+            if ex.status == -5:
+                raise VolumeError(ex.message) from None
+            raise
         self._volume = array
         self._shape = tuple(array.shape)
 

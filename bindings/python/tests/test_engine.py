@@ -142,12 +142,13 @@ def test_refusals_raise_ffseg_error_with_status_and_message():
         e.set_volume(vol[:, :, 0], affine())
     with pytest.raises(ValueError, match="4x4"):
         e.set_volume(vol, np.eye(3))
-    with pytest.raises(TypeError):
+    with pytest.raises(ffseg.VolumeError, match="numpy.ndarray") as ex:
         e.set_volume(vol.tolist(), affine())
+    assert ex.value.status == -5 and isinstance(ex.value, ffseg.Error)
     # Overlapping voxels (a broadcast view) and a singular affine: the engine's checks.
     with pytest.raises(ffseg.Error) as ex:
         e.set_volume(np.broadcast_to(vol[:1], vol.shape), affine())
-    assert ex.value.status == -5
+    assert ex.value.status == -5 and isinstance(ex.value, ffseg.VolumeError)
     with pytest.raises(ffseg.Error) as ex:
         e.set_volume(vol, np.diag([1.0, 0.0, 1.0, 1.0]))
     assert ex.value.status == -5 and ex.value.message
