@@ -364,7 +364,9 @@ bool nrrd_write_file(const std::string& path, const NiftiImage& img, std::string
     double axis[3][3], origin[3];
     lps_geometry(img, axis, origin);
     std::string h = "NRRD0004\n# written by ffseg\n";
-    h += std::string("type: ") + t->name + "\ndimension: 3\nspace: left-posterior-superior\n";
+    const std::string tn = t->name;  // NRRD spells the float types "float" and "double"
+    h += "type: " + (tn == "float32" ? std::string("float") : tn == "float64" ? std::string("double") : tn) +
+         "\ndimension: 3\nspace: left-posterior-superior\n";
     h += fmt("sizes: %d %d %d\n", img.dims[0], img.dims[1], img.dims[2]);
     h += "space directions:";
     for (int a = 0; a < 3; ++a)
