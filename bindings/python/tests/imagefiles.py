@@ -55,12 +55,12 @@ def write_nrrd(path, vol, affine, encoding="gzip", big_endian=False):
         f.write(gzip.compress(data) if encoding == "gzip" else data)
 
 
-def write_nhdr(path, vol, affine):
-    base = os.path.splitext(os.path.basename(path))[0] + ".raw"
+def write_nhdr(path, vol, affine, encoding="raw"):
+    base = os.path.splitext(os.path.basename(path))[0] + (".raw" if encoding == "raw" else ".raw.gz")
     with open(os.path.join(os.path.dirname(path), base), "wb") as f:
-        f.write(raw_bytes(vol))
+        f.write(raw_bytes(vol) if encoding == "raw" else gzip.compress(raw_bytes(vol)))
     with open(path, "w") as f:
-        f.write(nrrd_header(vol, affine, "raw", data_file=base))
+        f.write(nrrd_header(vol, affine, encoding, data_file=base))
 
 
 def mha_header(vol, affine, compressed, data_file="LOCAL", size=None, msb=False):

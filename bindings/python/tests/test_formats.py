@@ -113,7 +113,10 @@ def test_geometry_and_types_from_each_format(tmp_path):
     A = np.array([[0.0, -1.2, 0.0, 30.0], [0.9, 0.0, 0.0, -12.5], [0.0, 0.0, 2.0, 7.25], [0, 0, 0, 1]])
     for dt in (np.uint8, np.int16, np.uint16, np.int32, np.float32, np.float64):
         vol = small_volume(dt)
-        files = {"a.nrrd": F.write_nrrd, "b.mha": F.write_mha, "c.nhdr": F.write_nhdr, "d.mhd": F.write_mhd}
+        files = {"a.nrrd": F.write_nrrd, "b.mha": F.write_mha, "c.nhdr": F.write_nhdr, "d.mhd": F.write_mhd,
+                 "e.nhdr": lambda p, v, A: F.write_nhdr(p, v, A, "gzip"),
+                 "f.nrrd": lambda p, v, A: F.write_nrrd(p, v, A, "raw"),
+                 "g.mha": lambda p, v, A: F.write_mha(p, v, A, compressed=False)}
         for name, writer in files.items():
             p = str(tmp_path / f"{dt.__name__}_{name}")
             writer(p, vol, A)
@@ -276,3 +279,32 @@ def test_malformed_metaimage_headers_name_the_field(tmp_path, case):
     assert r.returncode == 3, r.stdout
     for w in words:
         assert w in r.stderr, (w, r.stderr)
+
+
+def test_nrrd_spaces_and_spacings(tmp_path):
+    vol = small_volume(np.uint8)
+    A = np.array([[0.0, -1.2, 0.0, 30.0], [0.9, 0.0, 0.0, -12.5], [0.0, 0.0, 2.0, 7.25], [0, 0, 0, 1]])
+    flips = {"right-anterior-superior": [1, 1, 1], "RAS": [1, 1, 1], "left-anterior-superior": [-1, 1, 1],
+             "left-posterior-superior": [-1, -1, 1], "LPS": [-1, -1, 1]}
+
+    def info_affine(p):
+        r = run_cli("info", p)
+        rows = [l for l in r.stdout.splitlines() if l.strip().startswith("[")]
+        return np.array([[float(x) for x in l.strip()[1:-1].split()] for l in rows]), r.stdout
+
+    for n, (space, f) in enumerate(flips.items()):
+        M, o = np.diag(f) @ A[:3, :3], np.diag(f) @ A[:3, 3]
+        h = ("NRRD0004\ntype: uint8\ndimension: 3\nsizes: 24 20 16\nencoding: raw\n"
+             f"space: {space}\nspace directions: " +
+             " ".join("(%r,%r,%r)" % tuple(M[:, a]) for a in range(3)) + "\nspace origin: (%r,%r,%r)\n\n" % tuple(o))
+        p = tmp_path / f"s{n}.nrrd"
+        p.write_bytes(h.encode() + F.raw_bytes(vol))
+        got, _ = info_affine(p)
+        np.testing.assert_allclose(got, A, atol=1e-4, err_msg=space)
+    # No space: spacings give a diagonal affine; neither: 1 mm voxels.
+    p = tmp_path / "sp.nrrd"
+    p.write_bytes(b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 24 20 16\nencoding: raw\nspacings: 0.5 2 3\n\n"
+                  + F.raw_bytes(vol))
+    got, out = info_affine(p)
+    np.testing.assert_allclose(got, np.diag([0.5, 2, 3, 1]), atol=1e-9)
+    assert "spacings" in out
