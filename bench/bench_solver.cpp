@@ -18,7 +18,7 @@
 #include "../tests/support/system_entries.h"
 
 #include "arena.h"
-#include "band_cholesky.h"
+#include "envelope_cholesky.h"
 #include "cubesphere.h"
 #include "rcm.h"
 

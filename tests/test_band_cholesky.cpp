@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "arena.h"
-#include "band_cholesky.h"
+#include "envelope_cholesky.h"
 #include "cubesphere.h"
 #include "rcm.h"
 

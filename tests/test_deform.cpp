@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "engine.h"
+#include "testing.h"
 #include "ffseg.h"
 #include "support/mesh_check.h"
 #include "support/phantoms.h"
@@ -61,7 +62,7 @@ RunResult run_deform(const Phantom& ph, const RunOptions& o) {
   ffseg_volume v = make_volume(ph.mask.data(), FFSEG_U8, ph.dims, ph.affine);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
   REQUIRE(ffseg_init_sphere(eb.e, 0, o.center, o.radius) == FFSEG_OK);
-  if (o.naive) reinterpret_cast<ffseg::Engine*>(eb.e)->set_naive(true);
+  if (o.naive) ffseg::EngineTesting::set_naive(*reinterpret_cast<ffseg::Engine*>(eb.e), true);
   std::vector<float> xyz;
   std::vector<uint32_t> tris;
   ffseg_step_info info;

@@ -1,6 +1,7 @@
 #include "test_util.h"
 
 #include "rasterize.h"
+#include "triangulation.h"
 #include "support/mesh_check.h"
 
 namespace ffseg_test {

@@ -1,4 +1,4 @@
-#include "correspondence.h"
+#include "binary_search.h"
 
 #include <cmath>
 #include <cstddef>

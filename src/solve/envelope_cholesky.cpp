@@ -1,4 +1,4 @@
-#include "band_cholesky.h"
+#include "envelope_cholesky.h"
 
 #include <cmath>
 #include <cstring>

@@ -1,10 +1,11 @@
-// Triangles of the cube-sphere (each quad split along its 0-2 diagonal) and
-// scan conversion of the closed mesh onto the volume grid (voxel centre inside).
+// Triangles of the cube-sphere: each quad split along the diagonal whose two
+// triangles bend least (so a non-planar quad never becomes a sharp fold). The
+// guard, the intersection tests, the rasteriser and mesh extraction all split
+// quads the same way through these functions.
 #pragma once
 #include <cstdint>
 
 #include "cubesphere.h"
-#include "volume.h"
 
 namespace ffseg {
 
@@ -66,10 +67,5 @@ inline int face_triangles(const CubeSphere& m, uint32_t f, uint32_t out[6], cons
 // All triangles, 3 indices each, outward (counter-clockwise seen from outside),
 // quads split as face_triangles does for positions x (may be nullptr).
 void triangulate(const CubeSphere& m, const double* x, uint32_t* tris);
-
-// mask[i*s0 + j*s1 + k*s2] = 1 where the voxel centre is inside the closed mesh
-// with vertices x (3 per vertex, mm), else 0; strides NULL = contiguous.
-void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol, uint8_t* mask,
-                    const int64_t strides[3]);
 
 }  // namespace ffseg

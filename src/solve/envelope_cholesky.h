@@ -24,7 +24,7 @@
 
 namespace ffseg {
 
-struct EnvelopeAssign;  // band_cholesky.cpp
+struct EnvelopeAssign;  // envelope_cholesky.cpp
 
 // ---- 2-ring graph of a mesh in which every vertex has 4 neighbours ----------
 

@@ -9,7 +9,7 @@
 #pragma once
 #include <cstdint>
 
-#include "band_cholesky.h"
+#include "envelope_cholesky.h"
 #include "cubesphere.h"
 
 namespace ffseg {
@@ -54,5 +54,15 @@ void laplacian_values(double lambda_l, double lambda_u, const double* w, Laplaci
 // positions x, targets p (used where w > 0) and weights w.
 void laplacian_rhs(const CubeSphere& m, double lambda_l, double lambda_u, const double* x, const double* p,
                    const double* w, double* rhs, double* scratch_l /* 3 * nv */);
+
+// The positional term of one step (eq. 4.2.6): p_i = u_i + alpha d_i where the
+// vertex has a displacement (has[v]), else u_i, each weighted by
+// lambda_p max(kWeightFloor, |p_i - u_i| / mean) plus a kAnchor share of
+// lambda_p that ties every vertex to u_i. target gets the one point per
+// vertex the two pull towards (their weighted mean), w the sum of the two
+// weights; x: current positions u, d: displacements, 3 per vertex.
+// scratch: nv doubles.
+void positional_terms(uint32_t nv, const double* x, const double* d, const uint8_t* has, double alpha,
+                      double lambda_p, double* target, double* w, double* scratch);
 
 }  // namespace ffseg

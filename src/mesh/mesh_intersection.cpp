@@ -3,7 +3,7 @@
 #include <cmath>
 #include <utility>
 
-#include "rasterize.h"
+#include "triangulation.h"
 
 namespace ffseg {
 

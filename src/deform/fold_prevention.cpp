@@ -1,4 +1,4 @@
-#include "self_intersection.h"
+#include "fold_prevention.h"
 
 #include <cmath>
 

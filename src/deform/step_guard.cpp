@@ -3,7 +3,7 @@
 #include <cstring>
 #include <utility>
 
-#include "rasterize.h"
+#include "triangulation.h"
 
 namespace ffseg {
 

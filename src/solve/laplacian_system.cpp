@@ -267,4 +267,51 @@ void laplacian_rhs(const CubeSphere& m, double lambda_l, double lambda_u, const 
   }
 }
 
+namespace {
+// Weight floor for the positional term: thesis eq. 4.2.6 weights by d_i / d_mean,
+// which would release a vertex that sits on its target; a floor keeps it held.
+constexpr double kWeightFloor = 0.25;
+// Every vertex is tied to its current position with this fraction of lambda_p,
+// so that the system stays positive definite when no vertex has a target.
+constexpr double kAnchor = 1e-3;
+}  // namespace
+
+void positional_terms(uint32_t nv, const double* x, const double* d, const uint8_t* has, double alpha,
+                      double lambda_p, double* target, double* w, double* scratch) {
+  double dsum = 0;
+  uint32_t dcount = 0;
+  for (uint32_t v = 0; v < nv; ++v) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double p = x[3 * size_t(v) + a] + (has[v] ? alpha * d[3 * size_t(v) + a] : 0.0);
+      target[3 * size_t(v) + a] = p;
+      d2 += (p - x[3 * size_t(v) + a]) * (p - x[3 * size_t(v) + a]);
+    }
+    scratch[v] = std::sqrt(d2);
+    if (has[v]) {
+      dsum += scratch[v];
+      ++dcount;
+    }
+  }
+  const double dmean = dcount ? dsum / dcount : 0.0;
+  for (uint32_t v = 0; v < nv; ++v) {
+    double wv = lambda_p * kAnchor;
+    if (has[v]) {
+      const double rel = dmean > 0 ? scratch[v] / dmean : 1.0;
+      wv += lambda_p * (rel > kWeightFloor ? rel : kWeightFloor);
+    }
+    w[v] = wv;
+  }
+  // The anchor pulls towards u_i, the positional term towards p_i: one target
+  // per vertex, the weighted mean of the two.
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (!has[v]) continue;
+    const double wa = lambda_p * kAnchor, wp = w[v] - wa;
+    for (int a = 0; a < 3; ++a) {
+      const size_t q = 3 * size_t(v) + a;
+      target[q] = (wa * x[q] + wp * target[q]) / w[v];
+    }
+  }
+}
+
 }  // namespace ffseg

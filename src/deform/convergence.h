@@ -1,0 +1,54 @@
+// When an object is at rest: each object's own record of how it moves, step by
+// step, and the rule that turns it into "converged". Read by the engine for
+// every object, however many there are (the step report only shows the first
+// FFSEG_REPORT_OBJECTS of them and is never read back).
+#pragma once
+#include <cstdint>
+
+namespace ffseg {
+
+// What decides rest; filled from the parameters at each step.
+struct ConvergenceRule {
+  double convergence_mm = 0.05;
+  // Binary targets polish after their first rest (a few diffusion rounds
+  // instead of many) and converge at the second; grey-level targets move to
+  // partial-volume boundaries for at most partial_volume_steps steps instead.
+  bool binary = true;
+  uint32_t partial_volume_steps = 0;
+};
+
+class Convergence {
+ public:
+  // Move again from where the mesh is (new parameters or volume).
+  void restart() {
+    converged_ = false;
+    refining_ = false;
+    refine_steps_ = 0;
+  }
+  // A new sphere: also forget the polishing phase.
+  void reset() {
+    restart();
+    polish_ = false;
+  }
+
+  bool converged() const { return converged_; }
+  // Binary targets: came to rest once, now polishing (fewer diffusion rounds).
+  bool polishing() const { return polish_; }
+  // Grey-level targets: came to rest once, now on partial-volume boundaries.
+  bool refining() const { return refining_; }
+
+  // A vertex that moves more than this counts as moving (see still()).
+  double moving_threshold(const ConvergenceRule& r) const;
+  // Records one step's motion (mean vertex displacement, vertices moving by
+  // more than moving_threshold(), out of nv) and advances the phases. Returns
+  // converged().
+  bool record(const ConvergenceRule& r, double mean_displacement_mm, uint32_t moving, uint32_t nv);
+
+ private:
+  bool polish_ = false;
+  bool refining_ = false;
+  uint32_t refine_steps_ = 0;
+  bool converged_ = false;
+};
+
+}  // namespace ffseg

@@ -1,0 +1,361 @@
+#include "engine.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <new>
+
+#include "rasterize.h"
+#include "stages.h"
+#include "triangulation.h"
+
+namespace ffseg {
+
+namespace {
+constexpr uint32_t kMaxObjects = 64;
+constexpr int64_t kMaxRoi = int64_t(1) << 40;
+
+bool in_range(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
+bool in_open_closed(double v, double lo, double hi) { return std::isfinite(v) && v > lo && v <= hi; }
+}  // namespace
+
+Err check_config(const Config& c, char* msg, size_t n) {
+  if (c.max_objects < 1 || c.max_objects > kMaxObjects) {
+    std::snprintf(msg, n, "config.max_objects = %u is outside 1..%u", c.max_objects, kMaxObjects);
+    return Err::invalid_argument;
+  }
+  if (c.mesh_resolution < CubeSphere::kMinN || c.mesh_resolution > CubeSphere::kMaxN) {
+    std::snprintf(msg, n, "config.mesh_resolution = %u is outside %u..%u", c.mesh_resolution,
+                  CubeSphere::kMinN, CubeSphere::kMaxN);
+    return Err::invalid_argument;
+  }
+  if (c.max_roi_voxels < 0 || c.max_roi_voxels > kMaxRoi) {
+    std::snprintf(msg, n, "config.max_roi_voxels = %lld is outside 0..2^40", (long long)c.max_roi_voxels);
+    return Err::invalid_argument;
+  }
+  return Err::ok;
+}
+
+Err check_params(const Params& p, char* msg, size_t n) {
+  const char* bad = nullptr;
+  if (p.target_mode != TargetMode::binary && p.target_mode != TargetMode::intensity) bad = "target_mode (0 or 1)";
+  else if (!in_open_closed(p.lambda_laplacian, 0, 1e6)) bad = "lambda_laplacian (0, 1e6]";
+  else if (!in_open_closed(p.lambda_position, 0, 1e6)) bad = "lambda_position (0, 1e6]";
+  else if (!in_range(p.lambda_uniform, 0, 1e6)) bad = "lambda_uniform [0, 1e6]";
+  else if (!in_open_closed(p.step_size, 0, 1)) bad = "step_size (0, 1]";
+  else if (!(in_range(p.flip_tau, 0, 1) && p.flip_tau < 1)) bad = "flip_tau [0, 1)";
+  else if (!in_range(p.search_range_mm, 0, 1e4)) bad = "search_range_mm [0, 1e4]";
+  else if (!in_range(p.search_step_mm, 0, 100)) bad = "search_step_mm [0, 100]";
+  else if (!in_range(p.convergence_mm, 0, 100)) bad = "convergence_mm [0, 100]";
+  else if (p.diffusion_iterations > 100) bad = "diffusion_iterations 0..100";
+  else if (p.partial_volume_steps > 1000) bad = "partial_volume_steps 0..1000";
+  else if (p.consecutive_background < 1 || p.consecutive_background > 64) bad = "consecutive_background 1..64";
+  else if (p.smoothing_iterations > 100) bad = "smoothing_iterations 0..100";
+  else if (p.bin_min_count > (1u << 31)) bad = "bin_min_count 0..2^31";
+  else if (!in_range(p.smoothing_kappa, 0, 1e9)) bad = "smoothing_kappa [0, 1e9]";
+  else if (!(in_range(p.intensity_gamma, 0, 1) && p.intensity_gamma > 0 && p.intensity_gamma < 1)) bad = "intensity_gamma (0, 1)";
+  else if (!in_range(p.sigma_floor_fraction, 0, 1)) bad = "sigma_floor_fraction [0, 1]";
+  else if (!in_range(p.bin_radius, 0, 1e9)) bad = "bin_radius [0, 1e9]";
+  else if (!in_range(p.bin_separation, 0, 1e9)) bad = "bin_separation [0, 1e9]";
+  if (bad) {
+    std::snprintf(msg, n, "params.%s: value out of range", bad);
+    return Err::invalid_argument;
+  }
+  return Err::ok;
+}
+
+// Doubles reserved for the envelope factor: measured stored entries per row
+// are 5.06 n + 5 for n = 2..128 under RCM (tests/test_deform.cpp checks the
+// bound); a closed form keeps the size query exact without building the mesh.
+uint64_t solver_capacity(uint32_t n, uint32_t nv) {
+  const uint64_t npad = (uint64_t(nv) + 3) / 4 * 4;
+  return npad * (uint64_t(21 * n) / 4 + 24);
+}
+
+void StepScratch::carve(Arena& a, const CubeSphere& m) {
+  const size_t nv = m.nv;
+  normals = a.alloc<double>(3 * nv);
+  goal = a.alloc<double>(3 * nv);
+  tmp = a.alloc<double>(3 * nv);
+  rhs = a.alloc<double>(3 * nv);
+  weight = a.alloc<double>(nv);
+  tmp_has = a.alloc<uint8_t>(nv);
+  flipping = a.alloc<uint8_t>(nv);
+  seq = a.alloc<uint32_t>(m.loop_len);
+  queue = a.alloc<uint32_t>(nv);
+  folds.carve(a, m.nv);
+  triangles.carve(a, m);
+  pattern.carve(a, m.nv);
+  program.carve(a, m.nv);
+}
+
+void Engine::layout(Arena& a) {
+  mesh_.carve(a, cfg_.mesh_resolution);
+  const bool real = !a.measuring() && a.ok();
+  if (real) mesh_.build();
+  scratch_.carve(a, mesh_);
+  const bool real2 = !a.measuring() && a.ok();
+  if (real2) scratch_.pattern.build(mesh_.nbr);
+  if (!scratch_.solver.init(a, real2 ? scratch_.pattern.graph() : CsrGraph{mesh_.nv, nullptr, nullptr},
+                            solver_capacity(mesh_.n, mesh_.nv)) &&
+      real2)
+    solver_failed_ = true;
+  if (real2 && !solver_failed_) scratch_.program.build(mesh_, scratch_.solver);
+  objects_ = a.alloc<Object>(cfg_.max_objects);
+  Object probe;  // measuring pass: carve through a throw-away object
+  for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
+    Object* o = objects_ ? new (&objects_[i]) Object() : &probe;
+    o->x = a.alloc<double>(size_t(3) * mesh_.nv);
+    o->roi.carve(a, cfg_.max_roi_voxels);
+    o->model.carve(a, IntensityModel::kDefaultSamples);
+    o->step.carve(a, mesh_.nv);
+  }
+}
+
+size_t Engine::workspace_bytes(const Config& c) {
+  Arena a;
+  a.alloc<Engine>(1);
+  Engine probe;
+  probe.cfg_ = c;
+  probe.layout(a);
+  return a.overflowed() ? 0 : a.used();
+}
+
+Engine* Engine::create(const Config& c, void* ws, size_t bytes) {
+  Arena a(ws, bytes);
+  void* at = a.alloc<Engine>(1);
+  if (at == nullptr) return nullptr;
+  Engine* e = new (at) Engine();
+  e->cfg_ = c;
+  e->layout(a);
+  if (!a.ok() || e->solver_failed_) return nullptr;
+  e->magic_ = kMagic;
+  return e;
+}
+
+Err Engine::set_params(const Params& p) {
+  const Err r = check_params(p, msg_, kMsgLen);
+  if (r == Err::ok) {
+    params_ = p;
+    for (uint32_t i = 0; i < cfg_.max_objects; ++i) objects_[i].convergence.restart();  // new terms: move again
+  }
+  return r;
+}
+
+Err Engine::set_volume(const VolumeDesc& d) {
+  VolumeView v;
+  if (!v.assign(d, msg_, kMsgLen)) return Err::invalid_volume;
+  vol_ = v;
+  for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
+    objects_[i].roi.invalidate();
+    objects_[i].model.reset();
+    objects_[i].convergence.restart();
+  }
+  return Err::ok;
+}
+
+Err Engine::sample(const double w[3], uint32_t mode, double* value) const {
+  if (!vol_.valid()) return Err::misuse;
+  if (!std::isfinite(w[0]) || !std::isfinite(w[1]) || !std::isfinite(w[2])) return Err::invalid_argument;
+  if (mode == 0) *value = vol_.sample_nearest(w);
+  else if (mode == 1) *value = vol_.sample_linear(w);
+  else return Err::invalid_argument;
+  return Err::ok;
+}
+
+Err Engine::check_object(uint32_t object, bool must_be_placed) const {
+  if (object >= cfg_.max_objects) {
+    std::snprintf(const_cast<char*>(msg_), kMsgLen, "object %u is not below max_objects = %u", object,
+                  cfg_.max_objects);
+    return Err::object_out_of_range;
+  }
+  if (must_be_placed && !objects_[object].placed) {
+    std::snprintf(const_cast<char*>(msg_), kMsgLen, "object %u has no mesh yet: call ffseg_init_sphere first",
+                  object);
+    return Err::misuse;
+  }
+  return Err::ok;
+}
+
+Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
+  const Err oe = check_object(object, false);
+  if (oe != Err::ok) return oe;
+  if (!vol_.valid()) {
+    std::snprintf(msg_, kMsgLen, "init_sphere: no volume set (call ffseg_set_volume first)");
+    return Err::misuse;
+  }
+  if (!std::isfinite(c[0]) || !std::isfinite(c[1]) || !std::isfinite(c[2])) {
+    std::snprintf(msg_, kMsgLen, "init_sphere: centre must be finite");
+    return Err::invalid_argument;
+  }
+  if (!(r > 0) || !std::isfinite(r)) {
+    std::snprintf(msg_, kMsgLen, "init_sphere: radius %g mm must be positive and finite", r);
+    return Err::invalid_argument;
+  }
+  if (!vol_.ball_meets_grid(c, r)) {
+    std::snprintf(msg_, kMsgLen, "init_sphere: the sphere (%g, %g, %g) r = %g mm does not meet the volume",
+                  c[0], c[1], c[2], r);
+    return Err::sphere_outside;
+  }
+  Object& o = objects_[object];
+  for (uint32_t v = 0; v < mesh_.nv; ++v)
+    for (int d = 0; d < 3; ++d) o.x[3 * v + d] = c[d] + r * mesh_.unit[3 * v + d];
+  for (int d = 0; d < 3; ++d) o.center[d] = c[d];
+  o.radius = r;
+  o.placed = true;
+  o.convergence.reset();
+  o.roi.invalidate();
+  o.model.reset();
+  return Err::ok;
+}
+
+Err Engine::extract_mesh(uint32_t object, float* xyz, size_t xyz_cap, uint32_t* tris, size_t tri_cap,
+                         size_t* nv, size_t* nt) const {
+  const Err oe = check_object(object, true);
+  if (oe != Err::ok) return oe;
+  const size_t NV = mesh_.nv, NT = mesh_.triangle_count();
+  if (nv) *nv = NV;
+  if (nt) *nt = NT;
+  if (xyz == nullptr && tris == nullptr) return Err::ok;
+  if ((xyz && xyz_cap < NV) || (tris && tri_cap < NT)) {
+    std::snprintf(const_cast<char*>(msg_), kMsgLen,
+                  "extract_mesh: buffers hold %zu vertices and %zu triangles, the mesh has %zu and %zu",
+                  xyz ? xyz_cap : NV, tris ? tri_cap : NT, NV, NT);
+    return Err::buffer_too_small;
+  }
+  const Object& o = objects_[object];
+  if (xyz)
+    for (size_t i = 0; i < 3 * NV; ++i) xyz[i] = float(o.x[i]);
+  if (tris) triangulate(mesh_, o.x, tris);
+  return Err::ok;
+}
+
+Err Engine::rasterize(uint32_t object, uint8_t* mask, const int64_t strides[3]) const {
+  const Err oe = check_object(object, true);
+  if (oe != Err::ok) return oe;
+  if (!vol_.valid()) return Err::misuse;
+  rasterize_mesh(mesh_, objects_[object].x, vol_, mask, strides);
+  return Err::ok;
+}
+
+}  // namespace ffseg
+
+// ---- one deformation step (thesis Algorithm 1) ---------------------------------
+
+namespace ffseg {
+
+Err Engine::step(StepReport* r) {
+  if (!vol_.valid()) {
+    std::snprintf(msg_, kMsgLen, "step: no volume set (call ffseg_set_volume first)");
+    return Err::misuse;
+  }
+  *r = StepReport();
+  const uint32_t N = cfg_.max_objects, nv = mesh_.nv;
+  uint32_t placed = 0;
+  for (uint32_t i = 0; i < N; ++i) placed += objects_[i].placed;
+  if (placed == 0) {
+    std::snprintf(msg_, kMsgLen, "step: no object placed (call ffseg_init_sphere first)");
+    return Err::misuse;
+  }
+  const Params& p = params_;
+  // A converged object stays where it is: it has reached the rest the caller
+  // asked for, and further steps would only cost time. Each stage below runs
+  // over the active objects only.
+  auto each_active = [&](auto&& f) -> Err {
+    for (uint32_t i = 0; i < N; ++i)
+      if (objects_[i].active()) {
+        const Err e = f(objects_[i]);
+        if (e != Err::ok) return e;
+      }
+    return Err::ok;
+  };
+  uint64_t t0 = now_us(), t1;
+  auto lap = [&](int stage) {
+    t1 = now_us();
+    r->stage_us[stage] += t1 - t0;
+    t0 = t1;
+  };
+
+  // 0. Features: the smoothed crop and the intensity model (grey levels).
+  if (p.target_mode == TargetMode::intensity) {
+    const Err e = each_active([&](Object& o) { return compute_features(vol_, p, nv, o, msg_, kMsgLen); });
+    if (e != Err::ok) return e;
+  }
+  lap(kStageFeatures);
+  // (Chapter 6's bounding regions go here: every object's mesh and features
+  // are known, no object has searched yet.)
+
+  // 1. Correspondences along the normals.
+  each_active([&](Object& o) {
+    search_correspondences(mesh_, vol_, p, o, scratch_.normals, o.step);
+    return Err::ok;
+  });
+  lap(kStageSearch);
+
+  if (naive_) {
+    each_active([&](Object& o) {
+      naive_step(nv, p, o.convergence.moving_threshold(rule()), o.x, o.step);
+      return Err::ok;
+    });
+  } else {
+    // 2-3. Flip detection and avoidance on the contours.
+    each_active([&](Object& o) {
+      avoid_contour_flips(mesh_, p, o.x, o.step, scratch_.flipping, scratch_.seq);
+      return Err::ok;
+    });
+    lap(kStageFlips);
+    // 4. Diffusion of the displacements.
+    each_active([&](Object& o) {
+      diffuse_step(mesh_, p, o.x, o.convergence.polishing(), o.step, scratch_);
+      return Err::ok;
+    });
+    lap(kStageDiffusion);
+    // 5. Non-flipping self-intersections: shorten disagreeing displacements.
+    each_active([&](Object& o) {
+      prevent_step_folds(mesh_, p, o.x, o.step, scratch_);
+      return Err::ok;
+    });
+    lap(kStageIntersection);
+    // 6. Laplacian deformation, solve and guarded update (times its own
+    // assembly, factor, solve and guard stages).
+    const Err e = each_active([&](Object& o) {
+      return deform_step(mesh_, p, o.convergence.moving_threshold(rule()), o.x, o.step, scratch_, r->stage_us, msg_,
+                         kMsgLen);
+    });
+    if (e != Err::ok) return e;
+  }
+
+  // 7. Convergence, object by object, and the report of the first objects.
+  bool all_converged = true;
+  uint32_t slot = 0;
+  for (uint32_t i = 0; i < N; ++i) {
+    Object& o = objects_[i];
+    if (!o.placed) continue;
+    const uint32_t at = slot++;  // report slots follow the placed objects
+    if (o.convergence.converged()) continue;
+    const ObjectStep& st = o.step;
+    if (at < kReportObjects) {
+      r->moving[at] = st.moving;
+      r->mean_displacement_mm[at] = st.mean_displacement_mm;
+      r->with_target[at] = st.found;
+      r->flips_avoided[at] = st.flips_avoided;
+      r->folds_avoided[at] = st.folds_avoided;
+    }
+    if (!o.convergence.record(rule(), st.mean_displacement_mm, st.moving, nv)) all_converged = false;
+  }
+  ++steps_;
+  r->step_index = steps_;
+  r->active_objects = placed;
+  return all_converged ? Err::converged : Err::ok;
+}
+
+ConvergenceRule Engine::rule() const {
+  ConvergenceRule c;
+  c.convergence_mm = params_.convergence_mm;
+  c.binary = params_.target_mode == TargetMode::binary;
+  c.partial_volume_steps = params_.partial_volume_steps;
+  return c;
+}
+
+}  // namespace ffseg

@@ -1,0 +1,73 @@
+// The engine: everything it owns lives in the caller's workspace, laid out by
+// one function that runs twice (measure, then carve), so the size query is exact.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "arena.h"
+#include "cubesphere.h"
+#include "errors.h"
+#include "object.h"
+#include "params.h"
+#include "step_report.h"
+#include "volume.h"
+
+namespace ffseg {
+
+class Engine {
+ public:
+  static constexpr size_t kMsgLen = 512;
+
+  // Exact workspace bytes for c (c must have passed check_config).
+  static size_t workspace_bytes(const Config& c);
+  // Builds an engine at the start of the workspace (64-byte aligned, at least
+  // workspace_bytes(c) long).
+  static Engine* create(const Config& c, void* ws, size_t bytes);
+
+  Err set_params(const Params& p);
+  const Params& params() const { return params_; }
+  Err set_volume(const VolumeDesc& d);
+  Err sample(const double w[3], uint32_t mode, double* value) const;
+  Err init_sphere(uint32_t object, const double c[3], double r);
+  Err extract_mesh(uint32_t object, float* xyz, size_t xyz_cap, uint32_t* tris, size_t tri_cap,
+                   size_t* nv, size_t* nt) const;
+  Err rasterize(uint32_t object, uint8_t* mask, const int64_t strides[3]) const;
+  // One deformation step of every placed, unconverged object (Algorithm 1):
+  // each stage runs over all of them before the next.
+  Err step(StepReport* report);
+  uint32_t steps_taken() const { return steps_; }
+
+  const char* message() const { return msg_; }
+  void clear_message() { msg_[0] = '\0'; }
+  char* message_buffer() { return msg_; }
+
+  const Config& config() const { return cfg_; }
+  const CubeSphere& mesh() const { return mesh_; }
+  const VolumeView& volume() const { return vol_; }
+  const Object& object(uint32_t i) const { return objects_[i]; }
+  uint32_t magic() const { return magic_; }
+  void retire() { magic_ = 0; }
+
+  static constexpr uint32_t kMagic = 0xFF5E6001u;
+
+ private:
+  Engine() = default;
+  void layout(Arena& a);
+  Err check_object(uint32_t object, bool must_be_placed) const;
+  ConvergenceRule rule() const;
+  friend struct EngineTesting;
+
+  uint32_t magic_ = 0;
+  Config cfg_;
+  Params params_;
+  CubeSphere mesh_;
+  VolumeView vol_;
+  Object* objects_ = nullptr;
+  StepScratch scratch_;
+  uint32_t steps_ = 0;
+  bool naive_ = false;
+  bool solver_failed_ = false;
+  char msg_[kMsgLen] = {};
+};
+
+}  // namespace ffseg

@@ -1,0 +1,69 @@
+// What the engine keeps for each object between steps (its mesh, crop,
+// intensity model and convergence), and what one step hands from stage to
+// stage for it. The scratch that the objects share lives in StepScratch.
+#pragma once
+#include <cstdint>
+
+#include "arena.h"
+#include "convergence.h"
+#include "cubesphere.h"
+#include "envelope_cholesky.h"
+#include "fold_prevention.h"
+#include "intensity_model.h"
+#include "laplacian_system.h"
+#include "mesh_intersection.h"
+#include "smoothing.h"
+
+namespace ffseg {
+
+// One object's data between the stages of a step: every object is searched
+// before any is deformed, so these are per object.
+struct ObjectStep {
+  double* target = nullptr;  // 3 nv: the correspondences v_i
+  double* disp = nullptr;    // 3 nv: diffused, fold-limited displacements d_i
+  uint8_t* has = nullptr;    // nv: vertex has a target / displacement
+  uint32_t found = 0;        // vertices with a target
+  uint32_t flips_avoided = 0;
+  uint32_t folds_avoided = 0;
+  double mean_displacement_mm = 0;  // how far the step moved the vertices
+  uint32_t moving = 0;              // ... and how many moved beyond the still threshold
+  void carve(Arena& a, uint32_t nv);
+};
+
+struct Object {
+  bool placed = false;
+  double center[3] = {0, 0, 0};
+  double radius = 0;
+  double* x = nullptr;  // 3 * nv current vertex positions, mm
+  // Grey-level targets: the smoothed crop around the mesh and the intensity
+  // model learned from the initial sphere (fitted at the first step).
+  SmoothedRoi roi;
+  IntensityModel model;
+  double kappa = 0;  // the conductance used, kept when the crop is recomputed
+  Convergence convergence;
+  ObjectStep step;
+  // Steps on: not converged (a converged object stays where it is).
+  bool active() const { return placed && !convergence.converged(); }
+};
+
+// Per-step working memory the objects share (each stage runs over the
+// objects one after the other).
+struct StepScratch {
+  double* normals = nullptr;  // 3 nv
+  double* goal = nullptr;     // 3 nv: the positional targets of the solve
+  double* tmp = nullptr;      // 3 nv
+  double* rhs = nullptr;      // 3 nv (three columns)
+  double* weight = nullptr;   // nv
+  uint8_t* tmp_has = nullptr; // nv
+  uint8_t* flipping = nullptr;// nv
+  uint32_t* seq = nullptr;    // loop_len
+  uint32_t* queue = nullptr;  // nv
+  IntersectionScratch folds;
+  TriangleScratch triangles;
+  TwoRingGraph pattern;
+  EnvelopeCholesky solver;
+  LaplacianProgram program;  // the solver's entries as assembly writes them
+  void carve(Arena& a, const CubeSphere& m);
+};
+
+}  // namespace ffseg

@@ -1,0 +1,240 @@
+#include "stages.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "binary_search.h"
+#include "diffusion.h"
+#include "flips.h"
+#include "fold_prevention.h"
+#include "intensity_search.h"
+#include "laplacian_system.h"
+#include "normals.h"
+#include "step_guard.h"
+
+namespace ffseg {
+
+namespace {
+
+// Harmonic fill of the target-less gaps before diffusion: sweeps and the
+// per-sweep change (mm) at which it stops.
+constexpr uint32_t kFillSweeps = 200;
+constexpr double kFillTolMm = 1e-3;
+
+// Automatic diffusion rounds: 20 at n = 33, scaled with n^2 so that the
+// displacement field is smoothed over the same share of the surface at every
+// mesh resolution (a round spreads about one edge; edges shrink as 1/n).
+// Measured on the cup: 20 rounds at n = 49 left the lid stuck (Dice 0.85),
+// 44 reach 0.95-0.97; 8 at n = 21 do slightly better than 20.
+uint32_t diffusion_rounds(uint32_t n) {
+  const long r = std::lround(20.0 * (double(n) / 33.0) * (double(n) / 33.0));
+  return r < 1 ? 1u : (r > 100 ? 100u : uint32_t(r));
+}
+
+// Polishing: once an object has come to rest, a twentieth of the rounds (at
+// least one). Strong diffusion keeps large motions stable but also holds the
+// mesh off sharp features (a rest where the *smoothed* displacement vanishes);
+// near the surface little is needed. Measured on the cup: n = 49, alpha 0.3 /
+// 0.7 from 0.954 / 0.967 to 0.979 / 0.997; n = 33 0.953 / 0.966 to 0.974 /
+// 0.993.
+uint32_t polish_rounds(uint32_t rounds) {
+  const uint32_t r = uint32_t(std::lround(rounds / 20.0));
+  return r < 1 ? 1u : r;
+}
+
+// How far the vertices moved from x to the new positions.
+struct MotionTally {
+  double still_mm;
+  double moved = 0;
+  uint32_t moving = 0;
+  void add(double d2) {
+    const double d = std::sqrt(d2);
+    moved += d;
+    moving += d > still_mm;
+  }
+  void store(uint32_t nv, ObjectStep& st) const {
+    st.mean_displacement_mm = moved / nv;
+    st.moving = moving;
+  }
+};
+
+}  // namespace
+
+uint64_t now_us() {
+  return uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(
+                      std::chrono::steady_clock::now().time_since_epoch())
+                      .count());
+}
+
+void ObjectStep::carve(Arena& a, uint32_t nv) {
+  target = a.alloc<double>(size_t(3) * nv);
+  disp = a.alloc<double>(size_t(3) * nv);
+  has = a.alloc<uint8_t>(nv);
+}
+
+Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object& o, char* msg, size_t msg_len) {
+  const double range = p.range_mm();
+  int64_t lo[3], hi[3];
+  if (!o.model.valid())
+    roi_box_for_ball(vol, o.center, o.radius + range, lo, hi);
+  else
+    roi_box_for_points(vol, o.x, nv, range, lo, hi);
+  // The crop is recomputed only when the mesh outgrows it, with a search
+  // range of slack.
+  if (!o.roi.valid() || !o.roi.contains(lo, hi)) {
+    if (o.model.valid()) roi_box_for_points(vol, o.x, nv, 2 * range, lo, hi);
+    SmoothingSettings sm;
+    sm.iterations = p.smoothing_iterations;
+    sm.kappa = o.model.valid() ? o.kappa : p.smoothing_kappa;
+    // Once the model is fitted the box statistics are not read again: only the
+    // first crop's (kept kappa, the model's variance floor) count.
+    sm.statistics = !o.model.valid();
+    const RoiStatus rs = o.roi.compute(vol, lo, hi, sm, msg, msg_len);
+    if (rs == RoiStatus::too_large) return Err::roi_too_large;
+    if (rs == RoiStatus::empty) {
+      std::snprintf(msg, msg_len, "step: the mesh has left the volume");
+      return Err::sphere_outside;
+    }
+    if (rs != RoiStatus::ok) return Err::invalid_argument;
+    o.kappa = o.roi.kappa();
+  }
+  if (!o.model.valid()) {
+    IntensityModelSettings ms;
+    ms.bin_radius = p.bin_radius;
+    ms.bin_separation = p.bin_separation;
+    ms.bin_min_count = p.bin_min_count;
+    ms.sigma_floor_fraction = p.sigma_floor_fraction;
+    LutSpec lut;
+    lut.type = vol.type();
+    lut.slope = vol.slope();
+    lut.intercept = vol.intercept();
+    const ModelStatus ms_st = o.model.fit(o.roi, o.center, o.radius, ms, lut, msg, msg_len);
+    if (ms_st != ModelStatus::ok) return ms_st == ModelStatus::no_samples ? Err::sphere_outside : Err::invalid_argument;
+  }
+  return Err::ok;
+}
+
+void search_correspondences(const CubeSphere& m, const VolumeView& vol, const Params& p, const Object& o,
+                            double* normals, ObjectStep& st) {
+  const uint32_t nv = m.nv;
+  vertex_normals(m, o.x, normals);
+  if (p.target_mode == TargetMode::binary) {
+    SearchSettings ss;
+    ss.range_mm = p.range_mm();
+    ss.step_mm = p.search_step_mm > 0 ? p.search_step_mm : 0.5 * vol.min_spacing();
+    st.found = search_binary(vol, nv, o.x, normals, ss, st.target, st.has);
+  } else {
+    IntensitySearchSettings is;
+    is.range_mm = p.range_mm();
+    is.step_mm = p.search_step_mm;
+    is.gamma = p.intensity_gamma;
+    is.consecutive_background = p.consecutive_background;
+    is.partial_volume = o.convergence.refining();
+    st.found = search_intensity(o.roi, o.model, nv, o.x, normals, is, st.target, st.has);
+  }
+}
+
+void avoid_contour_flips(const CubeSphere& m, const Params& p, const double* x, ObjectStep& st,
+                         uint8_t* flipping, uint32_t* seq) {
+  detect_flips(m, x, st.target, st.has, p.flip_tau, flipping);
+  st.flips_avoided = avoid_flips(m, flipping, st.has, seq);
+}
+
+// Rounds are always even. One round, eq. 4.2.2, is the mean over a vertex and
+// its four neighbours: on the quad grid it maps the checkerboard mode
+// (neighbours displaced in opposite senses) to -0.6 times itself, so an odd
+// number of rounds turns the finest ripple of the displacement field against
+// itself and the step feeds a sawtooth instead of damping it. At rest that grew
+// without bound (sphere phantom, one polishing round: Dice 0.999 -> 0.983 over
+// 140 steps; Colin27 meshes at n = 12, three rounds: half their edges bent by
+// more than 11 degrees, the guard refusing creases every step). An even count
+// makes every mode's factor (1 + lambda)^(2k) / 25^k >= 0.
+void diffuse_step(const CubeSphere& m, const Params& p, const double* x, bool polishing, ObjectStep& st,
+                  StepScratch& s) {
+  const uint32_t nv = m.nv;
+  for (uint32_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a)
+      st.disp[3 * size_t(v) + a] = st.has[v] ? st.target[3 * size_t(v) + a] - x[3 * size_t(v) + a] : 0.0;
+  harmonic_fill(m, st.disp, st.has, s.queue, kFillSweeps, kFillTolMm);
+  uint32_t rounds = p.diffusion_iterations ? p.diffusion_iterations : diffusion_rounds(m.n);
+  if (polishing) rounds = polish_rounds(rounds);
+  rounds += rounds & 1;
+  diffuse_displacements(m, rounds, st.disp, st.has, s.tmp, s.tmp_has);
+}
+
+void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, ObjectStep& st, StepScratch& s) {
+  st.folds_avoided = prevent_folds(m, x, st.disp, st.has, p.flip_tau, p.step_size, s.folds);
+}
+
+Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x, ObjectStep& st, StepScratch& s,
+                uint64_t stage_us[kStageCount], char* msg, size_t msg_len) {
+  const uint32_t nv = m.nv;
+  uint64_t t0 = now_us(), t1;
+  auto lap = [&](int stage) {
+    t1 = now_us();
+    stage_us[stage] += t1 - t0;
+    t0 = t1;
+  };
+  // p_i = u_i + alpha d_i, weights d_i / d_mean (eq. 4.2.6).
+  positional_terms(nv, x, st.disp, st.has, p.step_size, p.lambda_position, s.goal, s.weight, s.tmp);
+  // With the storage program (always, on the cube-sphere) only the values
+  // are computed here: the factorisation stores them group by group.
+  const bool fused = s.program.ok;
+  if (fused)
+    laplacian_values(p.lambda_laplacian, p.lambda_uniform, s.weight, s.program);
+  else
+    assemble_laplacian(m, p.lambda_laplacian, p.lambda_uniform, s.weight, s.solver, nullptr);
+  laplacian_rhs(m, p.lambda_laplacian, p.lambda_uniform, x, s.goal, s.weight, s.rhs, s.tmp);
+  lap(kStageAssembly);
+  // The factorisation stores each row group's matrix entries, factors the
+  // group and forward-substitutes the three right-hand sides in it while it
+  // is in cache; the solve stage is the backward half.
+  const int fr = fused ? s.solver.assign_factor_forward(s.program.off, s.program.val, s.program.count, s.rhs, nv)
+                       : s.solver.factor_forward(s.rhs, nv);
+  lap(kStageFactor);
+  if (fr != EnvelopeCholesky::kOk) {
+    std::snprintf(msg, msg_len, "step: factorisation failed (code %d, row %lld); mesh unchanged", fr,
+                  (long long)s.solver.failed_row());
+    return Err::numeric;
+  }
+  s.solver.solve_forwarded(s.rhs, nv);
+  lap(kStageSolve);
+  for (size_t q = 0; q < size_t(3) * nv; ++q)
+    if (!std::isfinite(s.rhs[q])) {
+      std::snprintf(msg, msg_len, "step: the solve produced non-finite positions; mesh unchanged");
+      return Err::numeric;
+    }
+  guard_step(m, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles);
+  lap(kStageGuard);
+  MotionTally tally{still_mm};
+  for (uint32_t v = 0; v < nv; ++v) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double nx = s.rhs[size_t(a) * nv + v];
+      d2 += (nx - x[3 * size_t(v) + a]) * (nx - x[3 * size_t(v) + a]);
+      x[3 * size_t(v) + a] = nx;
+    }
+    tally.add(d2);
+  }
+  tally.store(nv, st);
+  return Err::ok;
+}
+
+void naive_step(uint32_t nv, const Params& p, double still_mm, double* x, ObjectStep& st) {
+  MotionTally tally{still_mm};
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (!st.has[v]) continue;
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double dv = p.step_size * (st.target[3 * size_t(v) + a] - x[3 * size_t(v) + a]);
+      x[3 * size_t(v) + a] += dv;
+      d2 += dv * dv;
+    }
+    tally.add(d2);
+  }
+  tally.store(nv, st);
+  st.flips_avoided = st.folds_avoided = 0;
+}
+
+}  // namespace ffseg
