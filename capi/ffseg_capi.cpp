@@ -220,7 +220,7 @@ FFSEG_API void ffseg_params_init_default(ffseg_params* p) {
     if (!live(e)) return FFSEG_ERR_MISUSE;                        \
   } while (0)
 
-FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p) {
+static ffseg_status set_params_call(ffseg_engine* e, const ffseg_params* p) {
   FFSEG_REQUIRE_ENGINE(e);
   Engine* en = impl(e);
   en->clear_message();
@@ -263,7 +263,7 @@ FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p) 
   return to_status(en->set_params(q));
 }
 
-FFSEG_API ffseg_status ffseg_set_volume(ffseg_engine* e, const ffseg_volume* v) {
+static ffseg_status set_volume_call(ffseg_engine* e, const ffseg_volume* v) {
   FFSEG_REQUIRE_ENGINE(e);
   Engine* en = impl(e);
   en->clear_message();
@@ -293,15 +293,19 @@ FFSEG_API ffseg_status ffseg_set_volume(ffseg_engine* e, const ffseg_volume* v) 
   return to_status(en->set_volume(d));
 }
 
-FFSEG_API ffseg_status ffseg_sample(const ffseg_engine* e, const double point_mm[3], uint32_t mode,
+static ffseg_status sample_call(const ffseg_engine* e, const double point_mm[3], uint32_t mode,
                                     double* value) {
-  if (e == nullptr) return FFSEG_ERR_NULL_POINTER;
-  if (!live(e)) return FFSEG_ERR_MISUSE;
-  if (point_mm == nullptr || value == nullptr) return FFSEG_ERR_NULL_POINTER;
-  return to_status(impl(e)->sample(point_mm, mode, value));
+  FFSEG_REQUIRE_ENGINE(e);
+  Engine* en = const_cast<Engine*>(impl(e));
+  en->clear_message();
+  if (point_mm == nullptr || value == nullptr) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "sample: %s is NULL", point_mm ? "value" : "point");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  return to_status(en->sample(point_mm, mode, value));
 }
 
-FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object, const double center_mm[3],
+static ffseg_status init_sphere_call(ffseg_engine* e, uint32_t object, const double center_mm[3],
                                          double radius_mm) {
   FFSEG_REQUIRE_ENGINE(e);
   Engine* en = impl(e);
@@ -327,7 +331,7 @@ FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object, const
   return to_status(en->init_sphere(object, center_mm, radius_mm));
 }
 
-FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info) {
+static ffseg_status step_call(ffseg_engine* e, ffseg_step_info* info) {
   FFSEG_REQUIRE_ENGINE(e);
   Engine* en = impl(e);
   en->clear_message();
@@ -356,7 +360,7 @@ FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info) {
   return to_status(st);
 }
 
-FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object, float* xyz,
+static ffseg_status extract_mesh_call(const ffseg_engine* e, uint32_t object, float* xyz,
                                           size_t xyz_capacity, uint32_t* tris, size_t tri_capacity,
                                           size_t* n_vertices, size_t* n_tris) {
   FFSEG_REQUIRE_ENGINE(e);
@@ -365,7 +369,7 @@ FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object
   return to_status(en->extract_mesh(object, xyz, xyz_capacity, tris, tri_capacity, n_vertices, n_tris));
 }
 
-FFSEG_API ffseg_status ffseg_rasterize(const ffseg_engine* e, uint32_t object, uint8_t* mask,
+static ffseg_status rasterize_call(const ffseg_engine* e, uint32_t object, uint8_t* mask,
                                        const int64_t strides[3]) {
   FFSEG_REQUIRE_ENGINE(e);
   Engine* en = const_cast<Engine*>(impl(e));
@@ -379,6 +383,59 @@ FFSEG_API ffseg_status ffseg_rasterize(const ffseg_engine* e, uint32_t object, u
     return FFSEG_ERR_MISUSE;
   }
   return to_status(en->rasterize(object, mask, strides));
+}
+
+
+// Every failing call leaves a message: the engine's own, else one naming the
+// call and the status; and a copy in the thread's slot, so that
+// ffseg_last_error(NULL) always tells the thread's latest failure, never an
+// older, unrelated one.
+static ffseg_status finish(const char* call, const ffseg_engine* e, ffseg_status s) {
+  if (s >= 0) return s;
+  if (e == nullptr) {
+    std::snprintf(t_msg, sizeof t_msg, "%s: engine is NULL", call);
+  } else if (!live(e)) {
+    std::snprintf(t_msg, sizeof t_msg, "%s: not a live engine (destroyed, or not made by ffseg_create)", call);
+  } else {
+    Engine* en = const_cast<Engine*>(impl(e));
+    if (en->message()[0] == '\0')
+      std::snprintf(en->message_buffer(), Engine::kMsgLen, "%s: %s", call, ffseg_status_string(s));
+    set_tmsg(en->message());
+  }
+  return s;
+}
+
+FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p) {
+  return finish("set_params", e, set_params_call(e, p));
+}
+
+FFSEG_API ffseg_status ffseg_set_volume(ffseg_engine* e, const ffseg_volume* v) {
+  return finish("set_volume", e, set_volume_call(e, v));
+}
+
+FFSEG_API ffseg_status ffseg_sample(const ffseg_engine* e, const double point_mm[3], uint32_t mode,
+                                    double* value) {
+  return finish("sample", e, sample_call(e, point_mm, mode, value));
+}
+
+FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object, const double center_mm[3],
+                                         double radius_mm) {
+  return finish("init_sphere", e, init_sphere_call(e, object, center_mm, radius_mm));
+}
+
+FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info) {
+  return finish("step", e, step_call(e, info));
+}
+
+FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object, float* xyz,
+                                          size_t xyz_capacity, uint32_t* tris, size_t tri_capacity,
+                                          size_t* n_vertices, size_t* n_tris) {
+  return finish("extract_mesh", e, extract_mesh_call(e, object, xyz, xyz_capacity, tris, tri_capacity, n_vertices, n_tris));
+}
+
+FFSEG_API ffseg_status ffseg_rasterize(const ffseg_engine* e, uint32_t object, uint8_t* mask,
+                                       const int64_t strides[3]) {
+  return finish("rasterize", e, rasterize_call(e, object, mask, strides));
 }
 
 }  // extern "C"

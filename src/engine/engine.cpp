@@ -156,11 +156,21 @@ Err Engine::set_volume(const VolumeDesc& d) {
 }
 
 Err Engine::sample(const double w[3], uint32_t mode, double* value) const {
-  if (!vol_.valid()) return Err::misuse;
-  if (!std::isfinite(w[0]) || !std::isfinite(w[1]) || !std::isfinite(w[2])) return Err::invalid_argument;
+  char* msg = const_cast<char*>(msg_);  // the message is not part of the engine's state
+  if (!vol_.valid()) {
+    std::snprintf(msg, kMsgLen, "sample: no volume set (call ffseg_set_volume first)");
+    return Err::misuse;
+  }
+  if (!std::isfinite(w[0]) || !std::isfinite(w[1]) || !std::isfinite(w[2])) {
+    std::snprintf(msg, kMsgLen, "sample: the point (%g, %g, %g) mm is not finite", w[0], w[1], w[2]);
+    return Err::invalid_argument;
+  }
   if (mode == 0) *value = vol_.sample_nearest(w);
   else if (mode == 1) *value = vol_.sample_linear(w);
-  else return Err::invalid_argument;
+  else {
+    std::snprintf(msg, kMsgLen, "sample: mode = %u is neither 0 (nearest) nor 1 (trilinear)", mode);
+    return Err::invalid_argument;
+  }
   return Err::ok;
 }
 
