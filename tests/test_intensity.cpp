@@ -421,7 +421,7 @@ TEST_CASE("EM over binned samples (the scene fit) agrees with EM over the sample
     double* v = hist.data();
     double* w = v + IntensityModel::kCompressBins;
     double* ss = w + IntensityModel::kCompressBins;
-    const uint32_t nb = IntensityModel::compress(x.data(), n, shift, width, v, w, ss);
+    const uint32_t nb = compress_samples(x.data(), n, shift, width, v, w, ss);
     REQUIRE(nb > 100);
     REQUIRE(nb <= IntensityModel::kCompressBins);
     double count = 0, s1 = 0, s2 = 0, e1 = 0, e2 = 0;
@@ -439,7 +439,7 @@ TEST_CASE("EM over binned samples (the scene fit) agrees with EM over the sample
     CHECK(s1 == doctest::Approx(e1).epsilon(1e-9));
     CHECK(s2 == doctest::Approx(e2).epsilon(1e-9));
     // Too fine a width for the bins there are: wider bins, all samples kept.
-    const uint32_t nc = IntensityModel::compress(x.data(), n, shift, 1e-6, v, w, ss);
+    const uint32_t nc = compress_samples(x.data(), n, shift, 1e-6, v, w, ss);
     double c2 = 0;
     for (uint32_t b = 0; b < nc; ++b) c2 += w[b];
     CHECK(nc <= IntensityModel::kCompressBins);

@@ -1,6 +1,6 @@
 // exp over a block of doubles, returning what std::exp returns, faster.
 //
-// The E-step of EM (intensity_model.cpp) spends most of its time in exp. A
+// The E-step of EM (mixture_em.cpp) spends most of its time in exp. A
 // vector kernel (AVX-512F with FMA, chosen at run time) evaluates exp(x) in
 // double-double arithmetic (relative error below 2^-63): reduction
 // x = k ln2/16 + r with a three-part ln2/16, a degree-9 polynomial for

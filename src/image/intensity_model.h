@@ -67,62 +67,14 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "adaptive_binning.h"
 #include "arena.h"
+#include "mixture_em.h"
 #include "volume.h"
 
 namespace ffseg {
 
 class SmoothedRoi;
-
-struct Gaussian1 {
-  double weight = 0;  // a_i
-  double mean = 0;    // mu_i
-  double var = 0;     // sigma_i^2
-};
-
-struct Bin {
-  double centroid = 0;  // c_i
-  uint32_t count = 0;   // members in the last pass
-  double var = 0;       // members' variance about the centroid's mean
-};
-
-struct BinningSettings {
-  double radius = 0;       // R: a value joins its nearest bin within R
-  double separation = 0;   // S: a value opens a new bin at >= S from every bin
-  uint32_t min_count = 1;  // N_m: bins with fewer members are removed
-  uint32_t max_passes = 50;
-};
-
-// Algorithm 2 over x[0..n), visiting x in the order perm(s) = (s * stride) mod n
-// (stride coprime with n; 1 = as given). Writes at most max_bins bins, sorted by
-// centroid, and returns their number.
-uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, Bin* bins, uint32_t max_bins,
-                          uint32_t stride = 1);
-// A stride close to 0.618 n coprime with n (a well-mixed visiting order).
-uint32_t mixing_stride(uint32_t n);
-
-struct EmResult {
-  uint32_t iterations = 0;
-  double log_likelihood = 0;  // per sample, at the returned parameters
-};
-
-// EM for a 1-D mixture (E-step eq. 5.2.4, M-step eq. 5.2.5-5.2.7) from the
-// components in comp[0..*m); variances floored at var_floor. Components whose
-// weight falls below 1e-4 are dropped (*m shrinks, at least one stays).
-// Stops when the mean log-likelihood improves by less than tol. The
-// log-likelihood is summed with one log per 64 samples and an error bound; the
-// plain per-sample sum is computed only when the bound cannot decide the
-// stopping test, so iterations and results are those of the plain loop.
-EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations, double var_floor,
-                double tol = 1e-9);
-
-// The same fit over the finite samples binned `width` wide (see
-// IntensityModel::compress; hist: 3 IntensityModel::kCompressBins doubles):
-// each bin counts as its samples' mean with their weight and spread, so the
-// E-step costs the non-empty bins, not the samples. Plain log-likelihood
-// sums. Returns the number of non-empty bins.
-uint32_t em_fit_compressed(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations,
-                           double var_floor, double width, double* hist, double tol = 1e-9);
 
 struct IntensityModelSettings {
   double bin_radius = 0;              // R, intensity units; 0: 2 sigma_floor
@@ -143,23 +95,16 @@ enum class ModelStatus : int { ok = 0, no_samples, not_carved, bad_settings };
 
 class IntensityModel {
  public:
-  static constexpr uint32_t kMaxComponents = 8;
-  static constexpr uint32_t kMaxBins = 64;
+  static constexpr uint32_t kMaxComponents = kMaxMixtureComponents;
+  static constexpr uint32_t kMaxBins = kMaxBinningClusters;
   static constexpr uint32_t kLutMax = 65536;
   static constexpr uint32_t kDefaultSamples = 65536;  // a suggested cap (256 KB)
   static constexpr uint32_t kSceneSamples = 16384;    // cap on the crop voxels of the scene mixture
-  // The scene fit bins its samples (compress) when it has more than
+  // The scene fit bins its samples (compress_samples) when it has more than
   // kCompressAbove, kBinsPerSigma bins to the floor, at most kCompressBins.
-  static constexpr uint32_t kCompressBins = 4096;
+  static constexpr uint32_t kCompressBins = kMixtureCompressBins;
   static constexpr uint32_t kCompressAbove = 4096;
   static constexpr double kBinsPerSigma = 32;
-
-  // The finite samples of x in bins of the given width (wider when more than
-  // kCompressBins would be needed) from their minimum: per non-empty bin, in
-  // order, the mean less shift (v), the count (w) and the sum of squares
-  // about the mean (ss). Returns the number of non-empty bins.
-  static uint32_t compress(const float* x, uint32_t n, double shift, double width, double* v, double* w,
-                           double* ss);
 
   // max_samples: cap on the voxels drawn from the sphere.
   void carve(Arena& a, uint32_t max_samples);
@@ -214,7 +159,7 @@ class IntensityModel {
   // Algorithm 2 + EM over x (mean, m2: the samples' mean and variance) into comp; returns m.
   // hist (3 kCompressBins doubles, may be nullptr): with more than
   // kCompressAbove samples, EM runs over the samples binned kBinsPerSigma
-  // to the floor (see compress) instead of sample by sample.
+  // to the floor (see compress_samples) instead of sample by sample.
   static uint32_t fit_mixture(const float* x, uint32_t n, double mean, double m2, double sigma_floor,
                               const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found,
                               double* hist = nullptr);
