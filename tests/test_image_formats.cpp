@@ -43,13 +43,14 @@ NiftiImage oblique(int type) {
   im.bytes_per_voxel = nifti_voxel_type_size(type);
   im.data.resize(size_t(im.voxel_count()) * size_t(im.bytes_per_voxel));
   for (size_t i = 0; i < size_t(im.voxel_count()); ++i) {
-    const double v = double(i % 97) * 3 - 40 * (type == kNiftiVoxI16 || type == kNiftiVoxI32) + 0.25 * (type >= kNiftiVoxF32);
+    const int64_t k = int64_t(i % 97);  // 0..96: every stored value in its type's range
+    const double v = double(k) * 3 - 40 + 0.25;
     uint8_t* p = im.data.data() + i * size_t(im.bytes_per_voxel);
     switch (type) {
-      case kNiftiVoxU8: { const uint8_t x = uint8_t(v); std::memcpy(p, &x, 1); break; }
-      case kNiftiVoxI16: { const int16_t x = int16_t(v); std::memcpy(p, &x, 2); break; }
-      case kNiftiVoxU16: { const uint16_t x = uint16_t(v * 300); std::memcpy(p, &x, 2); break; }
-      case kNiftiVoxI32: { const int32_t x = int32_t(v * 1e5); std::memcpy(p, &x, 4); break; }
+      case kNiftiVoxU8: { const uint8_t x = uint8_t(2 * k); std::memcpy(p, &x, 1); break; }
+      case kNiftiVoxI16: { const int16_t x = int16_t(3 * k - 40); std::memcpy(p, &x, 2); break; }
+      case kNiftiVoxU16: { const uint16_t x = uint16_t(600 * k); std::memcpy(p, &x, 2); break; }
+      case kNiftiVoxI32: { const int32_t x = int32_t(300000 * k - 4000000); std::memcpy(p, &x, 4); break; }
       case kNiftiVoxF32: { const float x = float(v); std::memcpy(p, &x, 4); break; }
       default: { const double x = v / 3.0; std::memcpy(p, &x, 8); break; }
     }
