@@ -21,6 +21,7 @@
 #include "envelope_cholesky.h"
 #include "cubesphere.h"
 #include "rcm.h"
+#include "testing_hooks.h"
 
 #ifdef FFSEG_HAVE_LAPACK
 extern "C" {
@@ -62,6 +63,7 @@ std::vector<Entry> assemble(uint32_t nv, const uint32_t* nbr, double lL, double 
 }  // namespace
 
 int main(int argc, char** argv) {
+  ffseg::CpuDispatch cpu = ffseg::CpuDispatch::detect();
   int reps = 7;
   std::vector<uint32_t> sizes = {21, 33, 49, 65};
   for (int a = 1; a < argc; ++a) {
@@ -75,11 +77,12 @@ int main(int argc, char** argv) {
       }
     } else if (!std::strcmp(argv[a], "--kernel") && a + 1 < argc) {
       const char* k = argv[++a];
-      using K = ffseg::EnvelopeCholesky::Kernel;
-      ffseg::EnvelopeCholesky::set_kernel(!std::strcmp(k, "portable") ? K::portable
-                                          : !std::strcmp(k, "avx2")   ? K::avx2
-                                          : !std::strcmp(k, "avx512") ? K::avx512
-                                                                      : K::automatic);
+      using ffseg::Isa;
+      const Isa want = !std::strcmp(k, "portable") ? Isa::portable
+                       : !std::strcmp(k, "avx2")   ? Isa::avx2
+                       : !std::strcmp(k, "avx512") ? Isa::avx512
+                                                   : cpu.kernel(ffseg::KernelFamily::cholesky);
+      cpu = ffseg::CpuDispatchTesting::with(cpu, ffseg::KernelFamily::cholesky, want);
     }
   }
   if (reps < 1) reps = 1;
@@ -87,7 +90,7 @@ int main(int argc, char** argv) {
   if (openblas_set_num_threads) openblas_set_num_threads(1);
 #endif
   std::printf("kernel: %s, %d repetitions (median), single thread\n\n",
-              ffseg::EnvelopeCholesky::kernel_name(ffseg::EnvelopeCholesky::active_kernel()), reps);
+              ffseg::CpuDispatch::name(cpu.kernel(ffseg::KernelFamily::cholesky)), reps);
 
   std::printf(
       "| n | unknowns | RCM bw | envelope | stored | ffseg clear ms | ffseg add ms | ffseg factor ms | ffseg solve ms | "
@@ -142,13 +145,13 @@ int main(int argc, char** argv) {
       return 1;
     }
     ffseg::Arena sprobe;
-    if (!chol.init(sprobe, graph.graph(), 0, mscratch.data())) {
+    if (!chol.init(sprobe, graph.graph(), cpu, 0, mscratch.data())) {
       std::fprintf(stderr, "measure failed\n");
       return 1;
     }
     Buffer sbuf(sprobe.used());
     ffseg::Arena sa(sbuf.p, sprobe.used());
-    if (!chol.init(sa, graph.graph()) || sa.used() != sprobe.used()) {
+    if (!chol.init(sa, graph.graph(), cpu) || sa.used() != sprobe.used()) {
       std::fprintf(stderr, "init failed\n");
       return 1;
     }

@@ -19,17 +19,18 @@
 #include "envelope_cholesky.h"
 #include "cubesphere.h"
 #include "rcm.h"
+#include "testing.h"
 
 namespace {
 
 using ffseg::Arena;
 using ffseg::CsrGraph;
 using ffseg::EnvelopeCholesky;
-using Kernel = EnvelopeCholesky::Kernel;
+using ffseg::CpuDispatch;
+using ffseg::Isa;
+using Kernel = ffseg::Isa;
 
-struct KernelGuard {
-  ~KernelGuard() { EnvelopeCholesky::set_kernel(Kernel::automatic); }
-};
+const CpuDispatch kCpu = CpuDispatch::detect();
 
 // 64-byte aligned heap block for arenas.
 struct Block {
@@ -112,11 +113,11 @@ struct Solver {
   explicit Solver(const CsrGraph& g) {
     std::vector<uint32_t> scratch(EnvelopeCholesky::measure_scratch_words(g.n));
     Arena probe;
-    REQUIRE(chol.init(probe, g, 0, scratch.data()));
+    REQUIRE(chol.init(probe, g, kCpu, 0, scratch.data()));
     measured = probe.used();
     block = new Block(measured);
     Arena a(block->p, measured);
-    ok = chol.init(a, g);
+    ok = chol.init(a, g, kCpu);
     used = a.used();
   }
   ~Solver() { delete block; }
@@ -172,8 +173,11 @@ Graph two_ring(const ffseg::CubeSphere& m) {
   return g;
 }
 
+// The tile kernels this CPU runs, the portable one first.
 std::vector<Kernel> kernels() {
-  std::vector<Kernel> ks = {Kernel::portable, Kernel::avx2, Kernel::avx512};
+  std::vector<Kernel> ks;
+  for (Kernel k : {Kernel::portable, Kernel::avx2, Kernel::avx512})
+    if (CpuDispatch::supports(ffseg::KernelFamily::cholesky, k)) ks.push_back(k);
   return ks;
 }
 
@@ -259,7 +263,6 @@ TEST_CASE("cholesky: 2-ring graph of the cube sphere") {
 }
 
 TEST_CASE("cholesky: cube-sphere system matches Eigen SimplicialLLT, all kernels") {
-  KernelGuard guard;
   std::mt19937_64 rng(2024);
   std::uniform_real_distribution<double> U(0.0, 1.0);
   for (uint32_t n : {2u, 3u, 5u, 8u, 13u}) {
@@ -287,8 +290,8 @@ TEST_CASE("cholesky: cube-sphere system matches Eigen SimplicialLLT, all kernels
     CHECK(s.chol.envelope_entries() == ffseg::graph_envelope(g.csr(), s.chol.iperm()));
     for (Kernel k : kernels()) {
       CAPTURE(n);
-      CAPTURE(EnvelopeCholesky::kernel_name(k));
-      EnvelopeCholesky::set_kernel(k);
+      CAPTURE(CpuDispatch::name(k));
+      ffseg::EnvelopeCholeskyTesting::use(s.chol, k);
       s.chol.clear();
       for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
       CHECK(s.chol.get(0, 0) == doctest::Approx(A.coeff(0, 0)));
@@ -302,7 +305,6 @@ TEST_CASE("cholesky: cube-sphere system matches Eigen SimplicialLLT, all kernels
 }
 
 TEST_CASE("cholesky: random SPD envelope matrices match Eigen, any nrhs and ld") {
-  KernelGuard guard;
   std::mt19937_64 rng(99);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
   for (int trial = 0; trial < 40; ++trial) {
@@ -345,8 +347,8 @@ TEST_CASE("cholesky: random SPD envelope matrices match Eigen, any nrhs and ld")
     CHECK(s.used == s.measured);
     for (Kernel k : kernels()) {
       CAPTURE(trial);
-      CAPTURE(EnvelopeCholesky::kernel_name(k));
-      EnvelopeCholesky::set_kernel(k);
+      CAPTURE(CpuDispatch::name(k));
+      ffseg::EnvelopeCholeskyTesting::use(s.chol, k);
       s.chol.clear();
       for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
       REQUIRE(s.chol.factor() == EnvelopeCholesky::kOk);
@@ -381,7 +383,6 @@ struct SphereSystem {
 };
 
 TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit for bit, all kernels") {
-  KernelGuard guard;
   std::mt19937_64 rng(77);
   std::uniform_real_distribution<double> U(0.0, 1.0);
   for (uint32_t n : {2u, 5u, 12u, 21u}) {
@@ -396,8 +397,8 @@ TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit f
     REQUIRE(s.ok);
     for (Kernel k : kernels()) {
       CAPTURE(n);
-      CAPTURE(EnvelopeCholesky::kernel_name(k));
-      EnvelopeCholesky::set_kernel(k);
+      CAPTURE(CpuDispatch::name(k));
+      ffseg::EnvelopeCholeskyTesting::use(s.chol, k);
       load(s.chol, t);
       REQUIRE(s.chol.factor() == EnvelopeCholesky::kOk);
       std::vector<double> ref = B;
@@ -425,7 +426,6 @@ TEST_CASE("cholesky: factor_forward + solve_forwarded equal factor + solve bit f
 }
 
 TEST_CASE("cholesky: assign_factor_forward equals assign_sorted + factor_forward bit for bit, all kernels") {
-  KernelGuard guard;
   std::mt19937_64 rng(91);
   std::uniform_real_distribution<double> U(0.0, 1.0);
   for (uint32_t n : {2u, 5u, 13u, 21u}) {
@@ -456,8 +456,8 @@ TEST_CASE("cholesky: assign_factor_forward equals assign_sorted + factor_forward
     for (double& b : B) b = 200 * U(rng) - 100;
     for (Kernel k : kernels()) {
       CAPTURE(n);
-      CAPTURE(EnvelopeCholesky::kernel_name(k));
-      EnvelopeCholesky::set_kernel(k);
+      CAPTURE(CpuDispatch::name(k));
+      ffseg::EnvelopeCholeskyTesting::use(s.chol, k);
       // Reference: assembled by add(), then the two calls.
       load(s.chol, t);
       REQUIRE(s.chol.factor_forward(B.data(), ld) == EnvelopeCholesky::kOk);
@@ -498,7 +498,6 @@ TEST_CASE("cholesky: assign_factor_forward equals assign_sorted + factor_forward
 }
 
 TEST_CASE("cholesky: portable, AVX2 and AVX-512 kernels agree on the factor") {
-  KernelGuard guard;
   Mesh mesh(11);
   const Graph g = two_ring(mesh.m);
   std::vector<double> w(mesh.m.nv, 0.0);
@@ -509,8 +508,8 @@ TEST_CASE("cholesky: portable, AVX2 and AVX-512 kernels agree on the factor") {
   std::vector<std::vector<double>> L;
   std::vector<Kernel> used;
   for (Kernel k : kernels()) {
-    EnvelopeCholesky::set_kernel(k);
-    used.push_back(EnvelopeCholesky::active_kernel());
+    ffseg::EnvelopeCholeskyTesting::use(s.chol, k);
+    used.push_back(s.chol.kernel());
     s.chol.clear();
     for (const Entry& e : t) s.chol.add(e.i, e.j, e.v);
     REQUIRE(s.chol.factor() == EnvelopeCholesky::kOk);
@@ -522,9 +521,9 @@ TEST_CASE("cholesky: portable, AVX2 and AVX-512 kernels agree on the factor") {
     L.push_back(l);
   }
   CHECK(used[0] == Kernel::portable);
-  MESSAGE("kernels exercised: " << std::string(EnvelopeCholesky::kernel_name(used[0])) << ", "
-                                << std::string(EnvelopeCholesky::kernel_name(used[1])) << ", "
-                                << std::string(EnvelopeCholesky::kernel_name(used[2])));
+  std::string names;
+  for (Kernel k : used) names += std::string(names.empty() ? "" : ", ") + CpuDispatch::name(k);
+  MESSAGE("kernels exercised: " << names);
   for (std::size_t k = 1; k < L.size(); ++k) {
     double maxd = 0, maxv = 0;
     for (std::size_t i = 0; i < L[0].size(); ++i) {
@@ -536,7 +535,6 @@ TEST_CASE("cholesky: portable, AVX2 and AVX-512 kernels agree on the factor") {
 }
 
 TEST_CASE("cholesky: indefinite, singular, NaN and infinite matrices give error codes") {
-  KernelGuard guard;
   const Graph g = grid_graph(9, 7, nullptr);
   Solver s(g.csr());
   REQUIRE(s.ok);
@@ -549,8 +547,8 @@ TEST_CASE("cholesky: indefinite, singular, NaN and infinite matrices give error 
     }
   };
   for (Kernel k : kernels()) {
-    CAPTURE(EnvelopeCholesky::kernel_name(k));
-    EnvelopeCholesky::set_kernel(k);
+    CAPTURE(CpuDispatch::name(k));
+    ffseg::EnvelopeCholeskyTesting::use(s.chol, k);
     laplacian(0.1);
     CHECK(s.chol.factor() == EnvelopeCholesky::kOk);
 
@@ -603,12 +601,12 @@ TEST_CASE("cholesky: measuring pass is exact and writes nothing") {
   EnvelopeCholesky a;
   Arena probe;
   probe.alloc<char>(3);  // something carved before
-  REQUIRE(a.init(probe, g.csr(), 0, scratch.data()));
+  REQUIRE(a.init(probe, g.csr(), kCpu, 0, scratch.data()));
   Block blk(probe.used());
   std::memset(blk.p, 0xAB, probe.used());
   Arena real(blk.p, probe.used());
   real.alloc<char>(3);
-  REQUIRE(a.init(real, g.csr()));
+  REQUIRE(a.init(real, g.csr(), kCpu));
   CHECK(real.used() == probe.used());
   CHECK(real.ok());
 
@@ -621,29 +619,29 @@ TEST_CASE("cholesky: measuring pass is exact and writes nothing") {
   // Without graph or scratch the measuring pass needs a capacity.
   EnvelopeCholesky c;
   Arena p2;
-  CHECK_FALSE(c.init(p2, CsrGraph{g.n, nullptr, nullptr}, 0, nullptr));
+  CHECK_FALSE(c.init(p2, CsrGraph{g.n, nullptr, nullptr}, kCpu, 0, nullptr));
 
   // Capacity mode: the measuring pass needs neither graph nor scratch.
   const uint64_t cap = stored + 100;
   EnvelopeCholesky b;
   Arena p3;
-  REQUIRE(b.init(p3, CsrGraph{g.n, nullptr, nullptr}, cap));
+  REQUIRE(b.init(p3, CsrGraph{g.n, nullptr, nullptr}, kCpu, cap));
   Block blk3(p3.used());
   Arena r3(blk3.p, p3.used());
-  REQUIRE(b.init(r3, g.csr(), cap));
+  REQUIRE(b.init(r3, g.csr(), kCpu, cap));
   CHECK(r3.used() == p3.used());
 
   // Too small a capacity or a too small buffer fail cleanly.
   EnvelopeCholesky d;
   Arena p4;
-  REQUIRE(d.init(p4, CsrGraph{g.n, nullptr, nullptr}, stored - 1));
+  REQUIRE(d.init(p4, CsrGraph{g.n, nullptr, nullptr}, kCpu, stored - 1));
   Block blk4(p4.used());
   Arena r4(blk4.p, p4.used());
-  CHECK_FALSE(d.init(r4, g.csr(), stored - 1));
+  CHECK_FALSE(d.init(r4, g.csr(), kCpu, stored - 1));
   CHECK(d.factor() == EnvelopeCholesky::kNotReady);
   EnvelopeCholesky e;
   Arena r5(blk4.p, probe.used() / 2);
-  CHECK_FALSE(e.init(r5, g.csr()));
+  CHECK_FALSE(e.init(r5, g.csr(), kCpu));
   CHECK(e.factor() == EnvelopeCholesky::kNotReady);
 }
 
@@ -669,10 +667,10 @@ TEST_CASE("assembly program: the same matrix, bit for bit, as the plain assembly
     std::vector<uint32_t> ms(EnvelopeCholesky::measure_scratch_words(nv));
     EnvelopeCholesky chol;
     Arena sp;
-    REQUIRE(chol.init(sp, graph.graph(), 0, ms.data()));
+    REQUIRE(chol.init(sp, graph.graph(), kCpu, 0, ms.data()));
     Block sb(sp.used());
     Arena sa(sb.p, sp.used());
-    REQUIRE(chol.init(sa, graph.graph()));
+    REQUIRE(chol.init(sa, graph.graph(), kCpu));
     ffseg::LaplacianProgram prog;
     Arena pp;
     prog.carve(pp, nv);

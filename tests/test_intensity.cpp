@@ -16,11 +16,22 @@
 #include "intensity_model.h"
 #include "intensity_search.h"
 #include "smoothing.h"
+#include "testing.h"
 #include "volume.h"
 
 using namespace ffseg;
 
 namespace {
+
+// The kernels an engine on this CPU runs, and each kernel of one family
+// alone (the portable one first), the others as detected.
+const CpuDispatch kCpu = CpuDispatch::detect();
+std::vector<CpuDispatch> each_kernel(KernelFamily f) {
+  std::vector<CpuDispatch> out;
+  for (Isa k : {Isa::portable, Isa::sse2, Isa::avx2, Isa::avx512})
+    if (CpuDispatch::supports(f, k)) out.push_back(CpuDispatchTesting::with(kCpu, f, k));
+  return out;
+}
 
 // Deterministic normal deviates (splitmix64 + Box-Muller).
 struct Rng {
@@ -141,7 +152,7 @@ TEST_CASE("smoothing: Perona-Malik reduces noise in flat regions and keeps a ste
     CAPTURE(axis);
     TestVolume<float> v = edge_volume(axis, 7 + uint64_t(axis));
     SmoothedRoi roi;
-    Carved mem([&](Arena& a) { roi.carve(a, 64 * 64 * 12); });
+    Carved mem([&](Arena& a) { roi.carve(a, 64 * 64 * 12, kCpu); });
     REQUIRE(mem.ok);
     const int64_t lo[3] = {0, 0, 0}, hi[3] = {64, 64, 12};
     SmoothingSettings s;
@@ -205,8 +216,8 @@ TEST_CASE("smoothing: Perona-Malik reduces noise in flat regions and keeps a ste
 TEST_CASE("smoothing: a crop equals smoothing the whole volume inside its box") {
   TestVolume<float> v = edge_volume(0, 11);
   SmoothedRoi full, crop;
-  Carved m1([&](Arena& a) { full.carve(a, 64 * 64 * 12); });
-  Carved m2([&](Arena& a) { crop.carve(a, 40000); });
+  Carved m1([&](Arena& a) { full.carve(a, 64 * 64 * 12, kCpu); });
+  Carved m2([&](Arena& a) { crop.carve(a, 40000, kCpu); });
   SmoothingSettings s;
   s.iterations = 6;
   s.kappa = 25;  // fixed: the automatic one depends on the crop's noise sample
@@ -236,7 +247,7 @@ TEST_CASE("smoothing: a crop equals smoothing the whole volume inside its box") 
 TEST_CASE("smoothing: a crop over max_voxels fails and names the size it needs") {
   TestVolume<float> v = edge_volume(0, 3);
   SmoothedRoi roi;
-  Carved mem([&](Arena& a) { roi.carve(a, 1000); });
+  Carved mem([&](Arena& a) { roi.carve(a, 1000, kCpu); });
   REQUIRE(mem.ok);
   SmoothingSettings s;
   s.iterations = 2;
@@ -266,7 +277,7 @@ TEST_CASE("smoothing, intensity: non-finite voxels neither spread nor reach the 
   v.at(41, 20, 6) = -INFINITY;
   v.finish(VoxelType::F32);
   SmoothedRoi roi;
-  Carved mem([&](Arena& a) { roi.carve(a, 64 * 64 * 12); });
+  Carved mem([&](Arena& a) { roi.carve(a, 64 * 64 * 12, kCpu); });
   const int64_t lo[3] = {0, 0, 0}, hi[3] = {64, 64, 12};
   REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
   bool finite = true;
@@ -276,7 +287,7 @@ TEST_CASE("smoothing, intensity: non-finite voxels neither spread nor reach the 
   CHECK(finite);
   CHECK(roi.noise_sigma() == doctest::Approx(10).epsilon(0.15));
   IntensityModel model;
-  Carved mm([&](Arena& a) { model.carve(a, 4096); });
+  Carved mm([&](Arena& a) { model.carve(a, 4096, kCpu); });
   const double c[3] = {12 * 0.7, 10 * 0.7, 5 * 5.0};
   REQUIRE(model.fit(roi, c, 6, IntensityModelSettings(), LutSpec()) == ModelStatus::ok);
   CHECK(std::isfinite(model.component(0).mean));
@@ -291,8 +302,8 @@ TEST_CASE("smoothing, intensity: measuring pass and real pass carve the same byt
       SmoothedRoi roi;
       IntensityModel model;
       Carved c([&](Arena& a) {
-        roi.carve(a, maxv);
-        model.carve(a, cap);
+        roi.carve(a, maxv, kCpu);
+        model.carve(a, cap, kCpu);
       });
       CHECK(c.ok);
       CHECK(c.measured == c.real);
@@ -320,33 +331,33 @@ TEST_CASE("binning: Algorithm 2 finds 1, 2 and 3 components") {
   Bin bins[16];
   {
     auto x = mixture_samples(n, {{1.0, 100, 25}}, 1);
-    CHECK(adaptive_binning(x.data(), n, s, bins, 16, mixing_stride(n)) == 1);
+    CHECK(adaptive_binning(kCpu, x.data(), n, s, bins, 16, mixing_stride(n)) == 1);
     CHECK(bins[0].centroid == doctest::Approx(100).epsilon(0.02));
     // Visiting order matters for Algorithm 2: the mixing stride also copes with sorted input.
     std::sort(x.begin(), x.end());
-    CHECK(adaptive_binning(x.data(), n, s, bins, 16, mixing_stride(n)) == 1);
+    CHECK(adaptive_binning(kCpu, x.data(), n, s, bins, 16, mixing_stride(n)) == 1);
   }
   {
     auto x = mixture_samples(n, {{0.5, 100, 25}, {0.5, 160, 25}}, 2);
-    REQUIRE(adaptive_binning(x.data(), n, s, bins, 16, mixing_stride(n)) == 2);
+    REQUIRE(adaptive_binning(kCpu, x.data(), n, s, bins, 16, mixing_stride(n)) == 2);
     CHECK(bins[0].centroid == doctest::Approx(100).epsilon(0.03));
     CHECK(bins[1].centroid == doctest::Approx(160).epsilon(0.03));
   }
   {
     auto x = mixture_samples(n, {{0.3, 50, 16}, {0.4, 100, 25}, {0.3, 170, 36}}, 3);
-    REQUIRE(adaptive_binning(x.data(), n, s, bins, 16, mixing_stride(n)) == 3);
+    REQUIRE(adaptive_binning(kCpu, x.data(), n, s, bins, 16, mixing_stride(n)) == 3);
     CHECK(bins[0].centroid == doctest::Approx(50).epsilon(0.05));
     CHECK(bins[1].centroid == doctest::Approx(100).epsilon(0.05));
     CHECK(bins[2].centroid == doctest::Approx(170).epsilon(0.05));
     // N_m removes a small cluster: 0.5% of the samples (about 30) far away.
     auto y = mixture_samples(n, {{0.995, 100, 25}, {0.005, 200, 25}}, 4);
-    CHECK(adaptive_binning(y.data(), n, s, bins, 16, mixing_stride(n)) == 1);
+    CHECK(adaptive_binning(kCpu, y.data(), n, s, bins, 16, mixing_stride(n)) == 1);
     s.min_count = 15;
-    CHECK(adaptive_binning(y.data(), n, s, bins, 16, mixing_stride(n)) == 2);
+    CHECK(adaptive_binning(kCpu, y.data(), n, s, bins, 16, mixing_stride(n)) == 2);
   }
   // The model's automatic settings (R = 2, S = 4 sigma_floor) on the same mixtures.
   IntensityModel model;
-  Carved mem([&](Arena& a) { model.carve(a, 1024); });
+  Carved mem([&](Arena& a) { model.carve(a, 1024, kCpu); });
   IntensityModelSettings ms;
   LutSpec none;
   for (int k = 1; k <= 3; ++k) {
@@ -365,7 +376,7 @@ TEST_CASE("EM: recovers the means, variances and weights of known mixtures") {
     auto x = mixture_samples(n, {{0.6, 100, 64}, {0.4, 140, 36}}, 21);
     Gaussian1 c[2] = {{0.5, 90, 100}, {0.5, 150, 100}};
     uint32_t m = 2;
-    EmResult r = em_fit(x.data(), n, c, &m, 500, 0);
+    EmResult r = em_fit(kCpu, x.data(), n, c, &m, 500, 0);
     REQUIRE(m == 2);
     CHECK(r.iterations > 1);
     CHECK(c[0].mean == doctest::Approx(100).epsilon(0.005));
@@ -379,7 +390,7 @@ TEST_CASE("EM: recovers the means, variances and weights of known mixtures") {
     // Through the model: binning initialises EM, no floor.
     auto x = mixture_samples(n, {{0.25, 40, 9}, {0.5, 80, 25}, {0.25, 130, 49}}, 22);
     IntensityModel model;
-    Carved mem([&](Arena& a) { model.carve(a, 16); });
+    Carved mem([&](Arena& a) { model.carve(a, 16, kCpu); });
     IntensityModelSettings s;
     s.bin_radius = 8;
     s.bin_separation = 18;
@@ -400,7 +411,7 @@ TEST_CASE("EM: recovers the means, variances and weights of known mixtures") {
     // The variance floor: a narrow sample (sd 1) is widened to the floor (sd 5).
     auto x = mixture_samples(5000, {{1.0, 50, 1}}, 23);
     IntensityModel model;
-    Carved mem([&](Arena& a) { model.carve(a, 16); });
+    Carved mem([&](Arena& a) { model.carve(a, 16, kCpu); });
     REQUIRE(model.fit_samples(x.data(), 5000, 5.0, IntensityModelSettings(), LutSpec()) == ModelStatus::ok);
     REQUIRE(model.components() == 1);
     CHECK(model.component(0).var == doctest::Approx(25));
@@ -450,8 +461,8 @@ TEST_CASE("EM over binned samples (the scene fit) agrees with EM over the sample
   const Gaussian1 start[3] = {{0.3, 35, 30}, {0.4, 85, 30}, {0.3, 120, 30}};
   Gaussian1 a[3] = {start[0], start[1], start[2]}, b[3] = {start[0], start[1], start[2]};
   uint32_t ma = 3, mb = 3;
-  em_fit(x.data(), n, a, &ma, 200, 9.0);
-  const uint32_t nb = em_fit_compressed(x.data(), n, b, &mb, 200, 9.0, 3.0 / 32, hist.data());
+  em_fit(kCpu, x.data(), n, a, &ma, 200, 9.0);
+  const uint32_t nb = em_fit_compressed(kCpu, x.data(), n, b, &mb, 200, 9.0, 3.0 / 32, hist.data());
   CHECK(nb < n / 4);
   REQUIRE(ma == 3);
   REQUIRE(mb == 3);
@@ -466,7 +477,7 @@ TEST_CASE("EM over binned samples (the scene fit) agrees with EM over the sample
   // comparison can tell.
   Gaussian1 c[3] = {start[0], start[1], start[2]};
   uint32_t mc = 3;
-  em_fit_compressed(x.data(), n, c, &mc, 200, 9.0, 30.0, hist.data());
+  em_fit_compressed(kCpu, x.data(), n, c, &mc, 200, 9.0, 30.0, hist.data());
   double worst = 0;
   for (uint32_t i = 0; i < mc && i < 3; ++i) worst = std::max(worst, std::fabs(c[i].var - a[i].var) / a[i].var);
   CHECK(worst > 9e-3);
@@ -474,7 +485,7 @@ TEST_CASE("EM over binned samples (the scene fit) agrees with EM over the sample
 
 TEST_CASE("intensity: the lookup table gives the direct g (u8, i16 with rescale)") {
   IntensityModel model;
-  Carved mem([&](Arena& a) { model.carve(a, 16); });
+  Carved mem([&](Arena& a) { model.carve(a, 16, kCpu); });
   IntensityModelSettings s;
   {
     auto x = mixture_samples(5000, {{0.7, 120, 100}, {0.3, 160, 64}}, 31);
@@ -564,8 +575,8 @@ TEST_CASE("intensity: search finds a noisy CT ball's boundary from inside (outwa
   SmoothedRoi roi;
   IntensityModel model;
   Carved mem([&](Arena& a) {
-    roi.carve(a, int64_t(1) << 20);
-    model.carve(a, 4096);
+    roi.carve(a, int64_t(1) << 20, kCpu);
+    model.carve(a, 4096, kCpu);
   });
   REQUIRE(mem.ok);
   const double range = 12;
@@ -658,8 +669,8 @@ TEST_CASE("intensity: on near noise-free data the variance floor lets the search
   SmoothedRoi roi;
   IntensityModel model;
   Carved mem([&](Arena& a) {
-    roi.carve(a, int64_t(1) << 19);
-    model.carve(a, IntensityModel::kDefaultSamples);
+    roi.carve(a, int64_t(1) << 19, kCpu);
+    model.carve(a, IntensityModel::kDefaultSamples, kCpu);
   });
   int64_t lo[3], hi[3];
   roi_box_for_ball(v.view, c, 28, lo, hi);
@@ -712,8 +723,8 @@ TEST_CASE("intensity: partial-volume boundaries sit at the half-way level of a b
   SmoothedRoi roi;
   IntensityModel model;
   Carved mem([&](Arena& a) {
-    roi.carve(a, int64_t(1) << 19);
-    model.carve(a, IntensityModel::kDefaultSamples);
+    roi.carve(a, int64_t(1) << 19, kCpu);
+    model.carve(a, IntensityModel::kDefaultSamples, kCpu);
   });
   REQUIRE(mem.ok);
   int64_t lo[3], hi[3];
@@ -896,7 +907,8 @@ TEST_CASE("EM: bit-identical to the plain per-sample log-likelihood EM (iteratio
     if (trial % 7 == 3) x[n / 2] = NAN;  // non-finite samples are skipped by both
     Gaussian1 c1[8], c2[8];
     const uint32_t m0 = 1 + (trial * 3) % 8;
-    for (uint32_t i = 0; i < m0; ++i) c1[i] = c2[i] = {1.0 / m0, 40.0 + 150.0 * rnd(), 10 + 200 * rnd()};
+    Gaussian1 start[8];
+    for (uint32_t i = 0; i < m0; ++i) start[i] = c1[i] = c2[i] = {1.0 / m0, 40.0 + 150.0 * rnd(), 10 + 200 * rnd()};
     uint32_t m1 = m0, m2 = m0;
     const double floor = (trial % 3) ? 4.0 * rnd() : 0.0;
     double tol = trial % 2 ? 1e-9 : 1e-7;
@@ -914,7 +926,7 @@ TEST_CASE("EM: bit-identical to the plain per-sample log-likelihood EM (iteratio
         tol = trial % 2 ? d : std::nextafter(d, INFINITY);
       }
     }
-    const EmResult r1 = em_fit(x.data(), n, c1, &m1, its, floor, tol);
+    const EmResult r1 = em_fit(kCpu, x.data(), n, c1, &m1, its, floor, tol);
     const EmResult r2 = reference_em(x.data(), n, c2, &m2, its, floor, tol);
     CAPTURE(trial);
     REQUIRE(m1 == m2);
@@ -925,6 +937,17 @@ TEST_CASE("EM: bit-identical to the plain per-sample log-likelihood EM (iteratio
       CHECK(c1[i].weight == c2[i].weight);
       CHECK(c1[i].mean == c2[i].mean);
       CHECK(c1[i].var == c2[i].var);
+    }
+    for (const CpuDispatch& cpu : each_kernel(KernelFamily::mixture)) {  // every E-step kernel
+      CAPTURE(CpuDispatch::name(cpu.kernel(KernelFamily::mixture)));
+      Gaussian1 c4[8];
+      for (uint32_t i = 0; i < m0; ++i) c4[i] = start[i];
+      uint32_t m4 = m0;
+      const EmResult r4 = em_fit(cpu, x.data(), n, c4, &m4, its, floor, tol);
+      REQUIRE(m4 == m2);
+      CHECK(r4.iterations == r2.iterations);
+      CHECK(r4.log_likelihood == r2.log_likelihood);
+      for (uint32_t i = 0; i < m4; ++i) CHECK(std::memcmp(&c4[i], &c2[i], sizeof c4[i]) == 0);
     }
   }
   CHECK(fallbacks_possible > 10);  // most trials stop on the tolerance, not the cap
@@ -975,9 +998,6 @@ void check_kernels_bitwise(TestVolume<T>& v, double kappa) {
   // lengths: rows shorter than 8, 16 and 32 voxels take the short-row path of
   // the wide kernels, longer ones the edge-lane path. k is the longest axis,
   // so the storage order is i, j, k as in the reference.
-  SmoothedRoi roi;
-  Carved mem([&](Arena& a) { roi.carve(a, v.dims[0] * v.dims[1] * v.dims[2]); });
-  REQUIRE(mem.ok);
   SmoothingSettings s;
   s.iterations = 4;
   s.kappa = kappa;
@@ -985,11 +1005,12 @@ void check_kernels_bitwise(TestVolume<T>& v, double kappa) {
     const int64_t lo[3] = {0, 0, 0}, hi[3] = {nx, v.dims[1], v.dims[2]};
     const int64_t glo[3] = {0, 0, 0};
     // The reference over the same box (no margin: the crop is the grid's i range when nx = dims[0]).
-    for (SmoothKernel k : {SmoothKernel::lanes4, SmoothKernel::avx2, SmoothKernel::avx512}) {
-      if (!SmoothedRoi::kernel_available(k)) continue;
+    for (const CpuDispatch& cpu : each_kernel(KernelFamily::smoothing)) {
       CAPTURE(nx);
-      CAPTURE(int(k));
-      roi.set_kernel(k);
+      CAPTURE(CpuDispatch::name(cpu.kernel(KernelFamily::smoothing)));
+      SmoothedRoi roi;
+      Carved mem([&](Arena& a) { roi.carve(a, v.dims[0] * v.dims[1] * v.dims[2], cpu); });
+      REQUIRE(mem.ok);
       const int64_t sub_lo[3] = {0, 0, 0};
       // Crop = box [0, nx) x grid x grid, grown by 4 along i (clipped at 0).
       REQUIRE(roi.compute(v.view, sub_lo, hi, s) == RoiStatus::ok);
@@ -1057,8 +1078,8 @@ TEST_CASE("exp_block returns std::exp bit for bit (vector kernel certified lanes
     for (int i = 0; i < r.count; ++i) x.push_back(r.lo + (r.hi - r.lo) * rng.uniform());
   std::vector<double> y = x, k = x;
   // Odd lengths exercise the tail.
-  exp_block(y.data(), uint32_t(y.size()));
-  exp_block(y.data() + 3, 0);
+  exp_block(kCpu, y.data(), uint32_t(y.size()));
+  exp_block(kCpu, y.data() + 3, 0);
   size_t bad = 0;
   for (size_t i = 0; i < x.size(); ++i) {
     const double e = std::exp(x[i]);
@@ -1070,7 +1091,7 @@ TEST_CASE("exp_block returns std::exp bit for bit (vector kernel certified lanes
     std::vector<double> w(x.begin(), x.begin() + 3000001);
     for (size_t i = 0; i < w.size(); i += 3) w[i] = (i % 2) ? 0.0 : -0.0;
     std::vector<double> wy = w;
-    exp_block_nonzero(wy.data(), uint32_t(wy.size()));
+    exp_block_nonzero(kCpu, wy.data(), uint32_t(wy.size()));
     size_t badz = 0;
     for (size_t i = 0; i < w.size(); ++i) {
       const double e = std::exp(w[i]);
@@ -1080,12 +1101,12 @@ TEST_CASE("exp_block returns std::exp bit for bit (vector kernel certified lanes
   }
   for (uint32_t n : {1u, 5u, 7u, 9u, 15u}) {
     std::vector<double> z(x.begin() + 1000, x.begin() + 1000 + n);
-    exp_block(z.data(), n);
+    exp_block(kCpu, z.data(), n);
     for (uint32_t i = 0; i < n; ++i) CHECK(z[i] == std::exp(x[1000 + i]));
   }
-  if (exp_block_vectorised()) {
+  if (kCpu.kernel(KernelFamily::exp) == Isa::avx512) {
     // Most lanes are certified by the kernel itself (the others call std::exp).
-    exp_block_kernel_only(k.data(), uint32_t(k.size()));
+    ExpBlockTesting::kernel_only(k.data(), uint32_t(k.size()));
     size_t uncertified = 0, wrong = 0;
     for (size_t i = 0; i < x.size(); ++i) {
       if (std::isnan(k[i])) {
@@ -1105,7 +1126,7 @@ TEST_CASE("intensity: the i16 table equals float(g_direct) at every representabl
   // Narrow, far-apart components: most of the 65536 entries lie where every
   // exp underflows to 0 (the table skips evaluating those).
   IntensityModel model;
-  Carved mem([&](Arena& a) { model.carve(a, 16); });
+  Carved mem([&](Arena& a) { model.carve(a, 16, kCpu); });
   IntensityModelSettings s;
   auto x = mixture_samples(6000, {{0.5, -300, 4}, {0.3, 0, 9}, {0.2, 400, 1}}, 41);
   for (double slope : {0.5, 1.0, -2.0}) {
@@ -1134,8 +1155,8 @@ TEST_CASE("smoothing: skipping the box statistics (kappa given, integer volume) 
   for (auto& x : v.data) x = int16_t(1000 + 80.0 * (rng.uniform() > 0.5) + 15.0 * rng.normal());
   REQUIRE(v.finish(VoxelType::I16, 1.0, -1024.0));
   SmoothedRoi a, b;
-  Carved m1([&](Arena& ar) { a.carve(ar, 40 * 30 * 20); });
-  Carved m2([&](Arena& ar) { b.carve(ar, 40 * 30 * 20); });
+  Carved m1([&](Arena& ar) { a.carve(ar, 40 * 30 * 20, kCpu); });
+  Carved m2([&](Arena& ar) { b.carve(ar, 40 * 30 * 20, kCpu); });
   SmoothingSettings s;
   s.kappa = 30;
   const int64_t lo[3] = {5, 4, 3}, hi[3] = {33, 25, 15};
@@ -1277,16 +1298,20 @@ TEST_CASE("binning: bit-identical to the plain Algorithm 2 loop (clusters in vec
     s.min_count = 1 + uint32_t(rng.uniform() * n / 30);
     s.max_passes = 1 + uint32_t(rng.uniform() * 60);
     const uint32_t stride = (trial % 3) ? mixing_stride(n) : 1;
-    Bin b1[16], b2[16];
-    const uint32_t K1 = adaptive_binning(x.data(), n, s, b1, 16, stride);
+    Bin b2[16];
     const uint32_t K2 = reference_binning(x.data(), n, s, b2, 16, stride);
     CAPTURE(trial);
-    REQUIRE(K1 == K2);
-    many += K1 > 8;
-    for (uint32_t i = 0; i < std::min(K1, 16u); ++i) {
-      CHECK(b1[i].centroid == b2[i].centroid);
-      CHECK(b1[i].count == b2[i].count);
-      CHECK(b1[i].var == b2[i].var);
+    many += K2 > 8;
+    for (const CpuDispatch& cpu : each_kernel(KernelFamily::mixture)) {
+      CAPTURE(CpuDispatch::name(cpu.kernel(KernelFamily::mixture)));
+      Bin b1[16];
+      const uint32_t K1 = adaptive_binning(cpu, x.data(), n, s, b1, 16, stride);
+      REQUIRE(K1 == K2);
+      for (uint32_t i = 0; i < std::min(K1, 16u); ++i) {
+        CHECK(b1[i].centroid == b2[i].centroid);
+        CHECK(b1[i].count == b2[i].count);
+        CHECK(b1[i].var == b2[i].var);
+      }
     }
   }
   CHECK(many > 3);

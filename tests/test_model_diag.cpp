@@ -58,9 +58,9 @@ TEST_CASE("colin27 model diagnostic" * doctest::skip()) {
     SmoothedRoi roi, big;
     IntensityModel model;
     ffseg_test::ArenaBox box([&](Arena& a) {
-      roi.carve(a, 4000000);
-      big.carve(a, 8000000);
-      model.carve(a, IntensityModel::kDefaultSamples);
+      roi.carve(a, 4000000, ffseg::CpuDispatch::detect());
+      big.carve(a, 8000000, ffseg::CpuDispatch::detect());
+      model.carve(a, IntensityModel::kDefaultSamples, ffseg::CpuDispatch::detect());
     });
     REQUIRE(box.ok());
     int64_t lo[3], hi[3], blo[3], bhi[3];

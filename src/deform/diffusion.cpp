@@ -15,7 +15,7 @@ namespace {
 // round is the plain 5-point mean, summed in the general loop's order (from
 // 0, the vertex, then its neighbours) so every value is bit for bit the
 // same; rounds alternate between d and tmp instead of copying back.
-void diffuse_all(const CubeSphere& m, uint32_t rounds, double* d, double* tmp) {
+void diffuse_all(const CpuDispatch& cpu, const CubeSphere& m, uint32_t rounds, double* d, double* tmp) {
   const uint32_t nv = m.nv;
   const uint32_t* nbr = m.nbr;
   double* src = d;
@@ -23,6 +23,7 @@ void diffuse_all(const CubeSphere& m, uint32_t rounds, double* d, double* tmp) {
   for (uint32_t r = 0; r < rounds; ++r) {
     uint32_t v = 0;
 #if FFSEG_X86 && defined(__SSE2__)
+    if (cpu.kernel(KernelFamily::diffusion) == Isa::sse2) {
     // Two vertices at a time, their six values in three lanes pairs: the same
     // additions and divisions per value (division by 5 dominated the loop).
     const __m128d zero = _mm_setzero_pd(), five = _mm_set1_pd(5.0);
@@ -44,6 +45,9 @@ void diffuse_all(const CubeSphere& m, uint32_t rounds, double* d, double* tmp) {
       _mm_storeu_pd(q + 2, _mm_div_pd(s1, five));
       _mm_storeu_pd(q + 4, _mm_div_pd(s2, five));
     }
+    }
+#else
+    (void)cpu;
 #endif
     for (; v < nv; ++v) {
       const uint32_t* nb = nbr + 4 * size_t(v);
@@ -62,13 +66,13 @@ void diffuse_all(const CubeSphere& m, uint32_t rounds, double* d, double* tmp) {
 
 }  // namespace
 
-void diffuse_displacements(const CubeSphere& m, uint32_t rounds, double* d, uint8_t* has, double* tmp,
-                           uint8_t* tmp_has) {
+void diffuse_displacements(const CpuDispatch& cpu, const CubeSphere& m, uint32_t rounds, double* d, uint8_t* has,
+                           double* tmp, uint8_t* tmp_has) {
   bool all = true;
   for (uint32_t v = 0; v < m.nv && all; ++v) all = has[v] != 0;
   if (all && rounds > 0) {
     // The general loop would leave tmp and tmp_has as the last round's.
-    diffuse_all(m, rounds, d, tmp);
+    diffuse_all(cpu, m, rounds, d, tmp);
     for (uint32_t v = 0; v < m.nv; ++v) {
       has[v] = 1;
       tmp_has[v] = 1;

@@ -6,13 +6,16 @@
 #pragma once
 #include <cstdint>
 
+#include "cpu_dispatch.h"
 #include "cubesphere.h"
 
 namespace ffseg {
 
 // d: 3 * nv displacements, valid where has[v]; tmp: 3 * nv, tmp_has: nv.
-void diffuse_displacements(const CubeSphere& m, uint32_t rounds, double* d, uint8_t* has, double* tmp,
-                           uint8_t* tmp_has);
+// cpu: the engine's kernels (the rounds over a fully displaced mesh take two
+// vertices at a time in SSE2, with the scalar loop's bits).
+void diffuse_displacements(const CpuDispatch& cpu, const CubeSphere& m, uint32_t rounds, double* d, uint8_t* has,
+                           double* tmp, uint8_t* tmp_has);
 
 // Harmonic fill of the gaps before diffusion: the displacement of every
 // solitary vertex that is connected (through solitary vertices) to one with a

@@ -97,7 +97,8 @@ void Engine::layout(Arena& a) {
   scratch_.carve(a, mesh_);
   const bool real2 = !a.measuring() && a.ok();
   if (real2) scratch_.pattern.build(mesh_.nbr);
-  if (!scratch_.solver.init(a, real2 ? scratch_.pattern.graph() : CsrGraph{mesh_.nv, nullptr, nullptr},
+  scratch_.cpu = cpu_;
+  if (!scratch_.solver.init(a, real2 ? scratch_.pattern.graph() : CsrGraph{mesh_.nv, nullptr, nullptr}, cpu_,
                             solver_capacity(mesh_.n, mesh_.nv)) &&
       real2)
     solver_failed_ = true;
@@ -107,8 +108,8 @@ void Engine::layout(Arena& a) {
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     Object* o = objects_ ? new (&objects_[i]) Object() : &probe;
     o->x = a.alloc<double>(size_t(3) * mesh_.nv);
-    o->roi.carve(a, cfg_.max_roi_voxels);
-    o->model.carve(a, IntensityModel::kDefaultSamples);
+    o->roi.carve(a, cfg_.max_roi_voxels, cpu_);
+    o->model.carve(a, IntensityModel::kDefaultSamples, cpu_);
     o->step.carve(a, mesh_.nv);
   }
 }
@@ -128,6 +129,7 @@ Engine* Engine::create(const Config& c, void* ws, size_t bytes) {
   if (at == nullptr) return nullptr;
   Engine* e = new (at) Engine();
   e->cfg_ = c;
+  e->cpu_ = CpuDispatch::detect();  // the engine's one choice of kernels
   e->layout(a);
   if (!a.ok() || e->solver_failed_) return nullptr;
   e->magic_ = kMagic;

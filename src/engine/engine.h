@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "arena.h"
+#include "cpu_dispatch.h"
 #include "cubesphere.h"
 #include "errors.h"
 #include "object.h"
@@ -59,6 +60,7 @@ class Engine {
 
   uint32_t magic_ = 0;
   Config cfg_;
+  CpuDispatch cpu_;  // chosen at create, handed to every kernel-running object by layout()
   Params params_;
   CubeSphere mesh_;
   VolumeView vol_;

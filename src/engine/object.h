@@ -6,6 +6,7 @@
 
 #include "arena.h"
 #include "convergence.h"
+#include "cpu_dispatch.h"
 #include "cubesphere.h"
 #include "envelope_cholesky.h"
 #include "fold_prevention.h"
@@ -63,6 +64,7 @@ struct StepScratch {
   TwoRingGraph pattern;
   EnvelopeCholesky solver;
   LaplacianProgram program;  // the solver's entries as assembly writes them
+  CpuDispatch cpu;           // the engine's kernels (the diffusion stage's)
   void carve(Arena& a, const CubeSphere& m);
 };
 

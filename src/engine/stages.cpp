@@ -160,7 +160,7 @@ void diffuse_step(const CubeSphere& m, const Params& p, const double* x, bool po
   uint32_t rounds = p.diffusion_iterations ? p.diffusion_iterations : diffusion_rounds(m.n);
   if (polishing) rounds = polish_rounds(rounds);
   rounds += rounds & 1;
-  diffuse_displacements(m, rounds, st.disp, st.has, s.tmp, s.tmp_has);
+  diffuse_displacements(s.cpu, m, rounds, st.disp, st.has, s.tmp, s.tmp_has);
 }
 
 void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, ObjectStep& st, StepScratch& s) {

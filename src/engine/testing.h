@@ -1,7 +1,11 @@
-// The engine's test hooks, in one place and out of its public interface: a
-// test (never the C API) reaches them through this struct.
+// The test hooks, in one place and out of the production interfaces: a test
+// (never the C API) reaches them through these structs. The lower layers'
+// hooks (they cannot include engine/) come in with their headers.
 #pragma once
 #include "engine.h"
+#include "image_testing.h"  // ExpBlockTesting
+#include "solve_testing.h"  // EnvelopeCholeskyTesting
+#include "testing_hooks.h"  // CpuDispatchTesting
 
 namespace ffseg {
 
@@ -9,6 +13,8 @@ struct EngineTesting {
   // The naive variant of thesis fig. 4.10: vertices move straight towards
   // their targets; no flip or fold handling, no Laplacian solve.
   static void set_naive(Engine& e, bool on) { e.naive_ = on; }
+  // The kernels the engine chose at create.
+  static const CpuDispatch& cpu(const Engine& e) { return e.cpu_; }
 };
 
 }  // namespace ffseg

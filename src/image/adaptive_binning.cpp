@@ -145,16 +145,12 @@ __attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT uint32_t binning_visits
   return t;
 }
 
-bool binning_vectorised() {
-  static const bool v = __builtin_cpu_supports("avx512f");
-  return v;
-}
 #endif
 
 }  // namespace
 
-uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, Bin* bins, uint32_t max_bins,
-                          uint32_t stride) {
+uint32_t adaptive_binning(const CpuDispatch& cpu, const float* x, uint32_t n, const BinningSettings& s, Bin* bins,
+                          uint32_t max_bins, uint32_t stride) {
   if (n == 0) return 0;
   stride %= n;
   if (stride == 0 || gcd32(stride, n) != 1) stride = 1;
@@ -171,8 +167,10 @@ uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, 
     uint64_t idx = 0;
     uint32_t t = 0;
 #if FFSEG_X86
-    if (K <= 8 && binning_vectorised())
+    if (K <= 8 && cpu.kernel(KernelFamily::mixture) == Isa::avx512)
       t = binning_visits_avx512(x, n, stride, &idx, 0, R, S, c, cnt, sum, sum2, &K);
+#else
+    (void)cpu;
 #endif
     for (; t < n; ++t) {
       const double p = x[idx];

@@ -7,6 +7,8 @@
 #pragma once
 #include <cstdint>
 
+#include "cpu_dispatch.h"
+
 namespace ffseg {
 
 // Bins held while a pass runs (the result keeps at most max_bins of them).
@@ -25,11 +27,12 @@ struct BinningSettings {
   uint32_t max_passes = 50;
 };
 
-// Algorithm 2 over x[0..n), visiting x in the order perm(s) = (s * stride) mod n
+// Algorithm 2 over x[0..n) (cpu: the engine's kernels; the AVX-512 pass holds
+// up to 8 bins in lanes), visiting x in the order perm(s) = (s * stride) mod n
 // (stride coprime with n; 1 = as given). Writes at most max_bins bins, sorted by
 // centroid, and returns their number.
-uint32_t adaptive_binning(const float* x, uint32_t n, const BinningSettings& s, Bin* bins, uint32_t max_bins,
-                          uint32_t stride = 1);
+uint32_t adaptive_binning(const CpuDispatch& cpu, const float* x, uint32_t n, const BinningSettings& s, Bin* bins,
+                          uint32_t max_bins, uint32_t stride = 1);
 // A stride close to 0.618 n coprime with n (a well-mixed visiting order).
 uint32_t mixing_stride(uint32_t n);
 

@@ -1,4 +1,5 @@
 #include "exp_block.h"
+#include "image_testing.h"
 
 #include <cmath>
 #include <cstring>
@@ -230,46 +231,37 @@ __attribute__((target("avx512f,fma"))) FFSEG_NO_FMA_CONTRACT void exp_block_nonz
   for (; t < n; ++t) v[t] = v[t] == 0 ? 1.0 : std::exp(v[t]);
 }
 
-bool have_avx512() {
-  static const bool h = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("fma");
-  return h;
-}
-
 #endif
 
 }  // namespace
 
-bool exp_block_vectorised() {
+void exp_block(const CpuDispatch& cpu, double* v, uint32_t n) {
 #ifdef FFSEG_EXP_VECTOR
-  return have_avx512();
-#else
-  return false;
-#endif
-}
-
-void exp_block(double* v, uint32_t n) {
-#ifdef FFSEG_EXP_VECTOR
-  if (have_avx512()) {
+  if (cpu.kernel(KernelFamily::exp) == Isa::avx512) {
     exp_block_avx512<true>(v, n);
     return;
   }
+#else
+  (void)cpu;
 #endif
   for (uint32_t t = 0; t < n; ++t) v[t] = std::exp(v[t]);
 }
 
-void exp_block_nonzero(double* v, uint32_t n) {
+void exp_block_nonzero(const CpuDispatch& cpu, double* v, uint32_t n) {
 #ifdef FFSEG_EXP_VECTOR
-  if (have_avx512()) {
+  if (cpu.kernel(KernelFamily::exp) == Isa::avx512) {
     exp_block_nonzero_avx512(v, n);
     return;
   }
+#else
+  (void)cpu;
 #endif
   for (uint32_t t = 0; t < n; ++t) v[t] = v[t] == 0 ? 1.0 : std::exp(v[t]);
 }
 
-void exp_block_kernel_only(double* v, uint32_t n) {
+void ExpBlockTesting::kernel_only(double* v, uint32_t n) {
 #ifdef FFSEG_EXP_VECTOR
-  if (have_avx512()) {
+  if (CpuDispatch::supports(KernelFamily::exp, Isa::avx512)) {
     exp_block_avx512<false>(v, n);
     return;
   }

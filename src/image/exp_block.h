@@ -20,16 +20,14 @@
 #pragma once
 #include <cstdint>
 
+#include "cpu_dispatch.h"
+
 namespace ffseg {
 
-// v[t] = std::exp(v[t]) for t < n.
-void exp_block(double* v, uint32_t n);
+// v[t] = std::exp(v[t]) for t < n; the vector kernel when cpu's exp kernel
+// is AVX-512.
+void exp_block(const CpuDispatch& cpu, double* v, uint32_t n);
 // The same, with the zeros (exp(0) = 1) packed out before evaluation.
-void exp_block_nonzero(double* v, uint32_t n);
-
-// Test hooks: whether the vector kernel runs here, and the kernel alone on v
-// (lanes it cannot certify are set to NaN, so a test can count them).
-bool exp_block_vectorised();
-void exp_block_kernel_only(double* v, uint32_t n);
+void exp_block_nonzero(const CpuDispatch& cpu, double* v, uint32_t n);
 
 }  // namespace ffseg

@@ -38,7 +38,8 @@ void say(char* msg, size_t n, const char* text) {
 
 }  // namespace
 
-void IntensityModel::carve(Arena& a, uint32_t max_samples) {
+void IntensityModel::carve(Arena& a, uint32_t max_samples, const CpuDispatch& cpu) {
+  cpu_ = cpu;
   cap_ = max_samples;
   samples_ = a.alloc<float>(max_samples);
   hist_ = a.alloc<double>(size_t(3) * kCompressBins);
@@ -153,7 +154,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   sm2 /= ns;
   Gaussian1 scene[kMaxComponents];
   uint32_t scene_bins = 0;
-  const uint32_t sm = fit_mixture(samples_, ns, smean, sm2, floor, s, scene, &scene_bins, hist_);
+  const uint32_t sm = fit_mixture(cpu_, samples_, ns, smean, sm2, floor, s, scene, &scene_bins, hist_);
   // The object's classes: the scene components that claim (highest weighted
   // density) the mean of some object component. The others compete.
   bool own[kMaxComponents] = {};
@@ -196,15 +197,15 @@ ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma
   for (uint32_t j = 0; j < n; ++j)
     if (std::isfinite(x[j])) m2 += (x[j] - mean) * (x[j] - mean);
   m2 /= nf;
-  m_ = fit_mixture(x, n, mean, m2, sigma_floor, s, comp_, &bins_);
+  m_ = fit_mixture(cpu_, x, n, mean, m2, sigma_floor, s, comp_, &bins_);
   sm_ = 0;
   normalise_and_tabulate(lut);
   return ModelStatus::ok;
 }
 
-uint32_t IntensityModel::fit_mixture(const float* x, uint32_t n, double mean, double m2, double sigma_floor,
-                                     const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found,
-                                     double* hist) {
+uint32_t IntensityModel::fit_mixture(const CpuDispatch& cpu, const float* x, uint32_t n, double mean, double m2,
+                                     double sigma_floor, const IntensityModelSettings& s, Gaussian1* comp,
+                                     uint32_t* bins_found, double* hist) {
   const double sd = std::sqrt(m2);
   // The scale of the automatic R and S: the floor, else the samples' spread.
   const double ref = sigma_floor > 0 ? sigma_floor : (sd > 0 ? sd : 1.0);
@@ -214,7 +215,7 @@ uint32_t IntensityModel::fit_mixture(const float* x, uint32_t n, double mean, do
   b.min_count = s.bin_min_count > 0 ? s.bin_min_count : std::max<uint32_t>(8, (n + 19) / 20);
   if (b.min_count > n) b.min_count = n;
   Bin bins[kMaxComponents];
-  *bins_found = adaptive_binning(x, n, b, bins, kMaxComponents, mixing_stride(n));
+  *bins_found = adaptive_binning(cpu, x, n, b, bins, kMaxComponents, mixing_stride(n));
   uint32_t m = *bins_found < kMaxComponents ? *bins_found : kMaxComponents;
   const double vfloor = sigma_floor * sigma_floor;
   if (m == 0) {  // every bin fell under N_m: one component over all samples
@@ -233,9 +234,9 @@ uint32_t IntensityModel::fit_mixture(const float* x, uint32_t n, double mean, do
   }
   if (hist && n > kCompressAbove) {
     // Many samples (the scene): EM over bins a 32nd of the floor wide.
-    em_fit_compressed(x, n, comp, &m, s.em_iterations, vfloor, ref / kBinsPerSigma, hist, 1e-9);
+    em_fit_compressed(cpu, x, n, comp, &m, s.em_iterations, vfloor, ref / kBinsPerSigma, hist, 1e-9);
   } else {
-    em_fit(x, n, comp, &m, s.em_iterations, vfloor, 1e-9, false);
+    em_fit(cpu, x, n, comp, &m, s.em_iterations, vfloor, 1e-9, false);
   }
   return m;
 }

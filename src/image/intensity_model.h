@@ -106,8 +106,9 @@ class IntensityModel {
   static constexpr uint32_t kCompressAbove = 4096;
   static constexpr double kBinsPerSigma = 32;
 
-  // max_samples: cap on the voxels drawn from the sphere.
-  void carve(Arena& a, uint32_t max_samples);
+  // max_samples: cap on the voxels drawn from the sphere; cpu: the engine's
+  // kernels (binning, EM).
+  void carve(Arena& a, uint32_t max_samples, const CpuDispatch& cpu);
 
   // Fits the model to the smoothed crop's voxels inside the ball (c, r in mm);
   // the crop should contain the ball (voxels outside it are not seen).
@@ -160,12 +161,13 @@ class IntensityModel {
   // hist (3 kCompressBins doubles, may be nullptr): with more than
   // kCompressAbove samples, EM runs over the samples binned kBinsPerSigma
   // to the floor (see compress_samples) instead of sample by sample.
-  static uint32_t fit_mixture(const float* x, uint32_t n, double mean, double m2, double sigma_floor,
-                              const IntensityModelSettings& s, Gaussian1* comp, uint32_t* bins_found,
-                              double* hist = nullptr);
+  static uint32_t fit_mixture(const CpuDispatch& cpu, const float* x, uint32_t n, double mean, double m2,
+                              double sigma_floor, const IntensityModelSettings& s, Gaussian1* comp,
+                              uint32_t* bins_found, double* hist = nullptr);
 
   void normalise_and_tabulate(const LutSpec& lut);
 
+  CpuDispatch cpu_;
   float* samples_ = nullptr;
   double* hist_ = nullptr;  // 3 kCompressBins: the scene fit's binned samples
   float* lut_ = nullptr;

@@ -58,7 +58,7 @@ __attribute__((always_inline)) inline void store8(double* p, D8 v) { std::memcpy
 //   s = sum e_i; ll += mx + log(s); z = e_i (1 / s); Z_i += z; Zx_i += z x; Zxx_i += z x x,
 // each in IEEE double without contraction, so the sums are bit-identical.
 template <uint32_t M, bool EXACT>
-__attribute__((always_inline)) inline void e_step_body(const float* x, uint32_t n, double shift, const double* la,
+__attribute__((always_inline)) inline void e_step_body(const CpuDispatch& cpu, const float* x, uint32_t n, double shift, const double* la,
                                                        const double* mu, const double* ih, double* Z, double* Zx,
                                                        double* Zxx, LogLik* ll_io) {
   constexpr uint32_t kBlock = 64;  // 3 x 8 x 64 doubles of stack for M = 8
@@ -94,7 +94,7 @@ __attribute__((always_inline)) inline void e_step_body(const float* x, uint32_t 
     // are zeroed first (packed out too), the padding lanes' values are finite.
     for (uint32_t i = 0; i + 1 < M; ++i)
       for (uint32_t b = nv; b < kBlock; ++b) ev[i][b] = 0;
-    exp_block_nonzero(ev[0], (M - 1) * kBlock + nv);
+    exp_block_nonzero(cpu, ev[0], (M - 1) * kBlock + nv);
     for (uint32_t i = 0; i < M; ++i)
       for (uint32_t b = nb; b < nv; ++b) ev[i][b] = 1;  // padding lanes: s stays finite
     for (uint32_t b = 0; b < nv; b += 8) {
@@ -150,63 +150,62 @@ __attribute__((always_inline)) inline void e_step_body(const float* x, uint32_t 
 }
 
 template <bool EXACT>
-__attribute__((always_inline)) inline void e_step_switch(uint32_t m, const float* x, uint32_t n, double shift,
+__attribute__((always_inline)) inline void e_step_switch(const CpuDispatch& cpu, uint32_t m, const float* x, uint32_t n, double shift,
                                                          const double* la, const double* mu, const double* ih,
                                                          double* Z, double* Zx, double* Zxx, LogLik* ll) {
   static_assert(kMaxMixtureComponents == 8, "one e_step instance per component count");
   switch (m) {
-    case 1: e_step_body<1, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 2: e_step_body<2, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 3: e_step_body<3, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 4: e_step_body<4, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 5: e_step_body<5, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 6: e_step_body<6, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    case 7: e_step_body<7, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
-    default: e_step_body<8, EXACT>(x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 1: e_step_body<1, EXACT>(cpu, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 2: e_step_body<2, EXACT>(cpu, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 3: e_step_body<3, EXACT>(cpu, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 4: e_step_body<4, EXACT>(cpu, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 5: e_step_body<5, EXACT>(cpu, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 6: e_step_body<6, EXACT>(cpu, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    case 7: e_step_body<7, EXACT>(cpu, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
+    default: e_step_body<8, EXACT>(cpu, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll); break;
   }
 }
 
 template <bool EXACT>
-void e_step_base(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
+void e_step_base(const CpuDispatch& cpu, uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
                  const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
-  e_step_switch<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  e_step_switch<EXACT>(cpu, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
 }
 
 #if FFSEG_X86
 template <bool EXACT>
 __attribute__((target("avx512f"))) FFSEG_NO_FMA_CONTRACT void e_step_avx512(
-    uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih,
+    const CpuDispatch& cpu, uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu, const double* ih,
     double* Z, double* Zx, double* Zxx, LogLik* ll) {
-  e_step_switch<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  e_step_switch<EXACT>(cpu, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
 }
 #endif
 
 template <bool EXACT>
-void e_step_m(uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
+void e_step_m(const CpuDispatch& cpu, uint32_t m, const float* x, uint32_t n, double shift, const double* la, const double* mu,
               const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
 #if FFSEG_X86
-  static const bool wide = __builtin_cpu_supports("avx512f");
-  if (wide) {
-    e_step_avx512<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  if (cpu.kernel(KernelFamily::mixture) == Isa::avx512) {
+    e_step_avx512<EXACT>(cpu, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
     return;
   }
 #endif
-  e_step_base<EXACT>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  e_step_base<EXACT>(cpu, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
 }
 
-void e_step_dispatch(bool exact, uint32_t m, const float* x, uint32_t n, double shift, const double* la,
+void e_step_dispatch(const CpuDispatch& cpu, bool exact, uint32_t m, const float* x, uint32_t n, double shift, const double* la,
                      const double* mu, const double* ih, double* Z, double* Zx, double* Zxx, LogLik* ll) {
-  if (exact) e_step_m<true>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
-  else e_step_m<false>(m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  if (exact) e_step_m<true>(cpu, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
+  else e_step_m<false>(cpu, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, ll);
 }
 
 // The exact mean log-likelihood (the reference sum) at parameters la, mu, ih.
-double exact_ll(uint32_t m, const float* x, uint32_t n, uint32_t nf, double shift, const double* la, const double* mu,
+double exact_ll(const CpuDispatch& cpu, uint32_t m, const float* x, uint32_t n, uint32_t nf, double shift, const double* la, const double* mu,
                 const double* ih, double half_log_2pi) {
   double Z[kMaxMixtureComponents] = {}, Zx[kMaxMixtureComponents] = {},
          Zxx[kMaxMixtureComponents] = {};
   LogLik L;
-  e_step_dispatch(true, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &L);
+  e_step_dispatch(cpu, true, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &L);
   return L.sum / nf - half_log_2pi;
 }
 
@@ -252,8 +251,8 @@ bool m_step(const double* Z, const double* Zx, const double* Zxx, double nf, dou
 
 // em_fit; exact_result: also report the exact (reference) log-likelihood,
 // which may cost one more pass (the engine does not read it).
-EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
-                     double var_floor, double tol, bool exact_result) {
+EmResult em_fit_impl(const CpuDispatch& cpu, const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io,
+                     uint32_t max_iterations, double var_floor, double tol, bool exact_result) {
   EmResult r;
   uint32_t m = *m_io;
   if (n == 0 || m == 0) return r;
@@ -306,7 +305,7 @@ EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io
     const uint32_t em = m;
     cm = em;
     LogLik L;
-    e_step_dispatch(false, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &L);
+    e_step_dispatch(cpu, false, m, x, n, shift, la, mu, ih, Z, Zx, Zxx, &L);
     ll = L.sum / nf - half_log_2pi;
     ll_exact = false;
     const double ll_err = ll_error_bound(L, n, nf, ll);
@@ -322,8 +321,8 @@ EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io
       if (diff < tol - margin) {
         stop = true;
       } else if (!(diff >= tol + margin)) {  // not certain (or NaN): decide on exact values
-        if (!prev_exact) ll_prev = exact_ll(pm, x, n, nf, shift, pla, pmu, pih, half_log_2pi);
-        ll = exact_ll(em, x, n, nf, shift, la, emu, ih, half_log_2pi);
+        if (!prev_exact) ll_prev = exact_ll(cpu, pm, x, n, nf, shift, pla, pmu, pih, half_log_2pi);
+        ll = exact_ll(cpu, em, x, n, nf, shift, la, emu, ih, half_log_2pi);
         ll_exact = true;
         stop = ll - ll_prev < tol;
       }
@@ -340,9 +339,9 @@ EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io
     pm = em;
   }
   if (report == kReportCur) {
-    r.log_likelihood = ll_exact || !exact_result ? ll : exact_ll(cm, x, n, nf, shift, la, emu, ih, half_log_2pi);
+    r.log_likelihood = ll_exact || !exact_result ? ll : exact_ll(cpu, cm, x, n, nf, shift, la, emu, ih, half_log_2pi);
   } else if (report == kReportPrev) {
-    r.log_likelihood = prev_exact || !exact_result ? ll_prev : exact_ll(pm, x, n, nf, shift, pla, pmu, pih, half_log_2pi);
+    r.log_likelihood = prev_exact || !exact_result ? ll_prev : exact_ll(cpu, pm, x, n, nf, shift, pla, pmu, pih, half_log_2pi);
   }
   r.iterations = it;
   for (uint32_t i = 0; i < m; ++i) {
@@ -361,7 +360,7 @@ EmResult em_fit_impl(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io
 // Zxx_i += z_i (w v^2 + ss), so every component's first and second moments
 // are exact where a point's samples share its responsibilities. Same start,
 // variance floor, dropping rule and stopping test (plain sums).
-void em_fit_weighted(const double* v, const double* w, const double* ss, uint32_t np, Gaussian1* comp,
+void em_fit_weighted(const CpuDispatch& cpu, const double* v, const double* w, const double* ss, uint32_t np, Gaussian1* comp,
                      uint32_t* m_io, uint32_t max_iterations, double var_floor, double tol) {
   uint32_t m = *m_io;
   if (np == 0 || m == 0) return;
@@ -405,7 +404,7 @@ void em_fit_weighted(const double* v, const double* w, const double* ss, uint32_
         mx[b] = top;
         for (uint32_t i = 0; i < m; ++i) ev[i * kBlock + b] -= top;
       }
-      for (uint32_t i = 0; i < m; ++i) exp_block(ev + i * kBlock, nb);
+      for (uint32_t i = 0; i < m; ++i) exp_block(cpu, ev + i * kBlock, nb);
       for (uint32_t b = 0; b < nb; ++b) {
         const uint32_t j = j0 + b;
         double sum = 0;
@@ -472,8 +471,8 @@ uint32_t compress_samples(const float* x, uint32_t n, double shift, double width
   return k;
 }
 
-uint32_t em_fit_compressed(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations,
-                           double var_floor, double width, double* hist, double tol) {
+uint32_t em_fit_compressed(const CpuDispatch& cpu, const float* x, uint32_t n, Gaussian1* comp, uint32_t* m,
+                           uint32_t max_iterations, double var_floor, double width, double* hist, double tol) {
   double mean = 0;
   uint32_t nf = 0;
   for (uint32_t j = 0; j < n; ++j)
@@ -485,14 +484,14 @@ uint32_t em_fit_compressed(const float* x, uint32_t n, Gaussian1* comp, uint32_t
   double* hs = hist + 2 * size_t(kMixtureCompressBins);
   const uint32_t np = compress_samples(x, n, mean, width, hv, hw, hs);
   for (uint32_t i = 0; i < *m; ++i) comp[i].mean -= mean;
-  em_fit_weighted(hv, hw, hs, np, comp, m, max_iterations, var_floor, tol);
+  em_fit_weighted(cpu, hv, hw, hs, np, comp, m, max_iterations, var_floor, tol);
   for (uint32_t i = 0; i < *m; ++i) comp[i].mean += mean;
   return np;
 }
 
-EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io, uint32_t max_iterations,
-                double var_floor, double tol, bool exact_log_likelihood) {
-  return em_fit_impl(x, n, comp, m_io, max_iterations, var_floor, tol, exact_log_likelihood);
+EmResult em_fit(const CpuDispatch& cpu, const float* x, uint32_t n, Gaussian1* comp, uint32_t* m_io,
+                uint32_t max_iterations, double var_floor, double tol, bool exact_log_likelihood) {
+  return em_fit_impl(cpu, x, n, comp, m_io, max_iterations, var_floor, tol, exact_log_likelihood);
 }
 
 }  // namespace ffseg

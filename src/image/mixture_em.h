@@ -1,8 +1,11 @@
 // EM for a 1-D Gaussian mixture (thesis 5.2.2: E-step eq. 5.2.4, M-step
 // eq. 5.2.5-5.2.7) with a variance floor: the intensity model's fit, over the
 // samples one by one or over the samples binned (the scene's many voxels).
+// cpu: the engine's kernels (the E-step's and exp_block's).
 #pragma once
 #include <cstdint>
+
+#include "cpu_dispatch.h"
 
 namespace ffseg {
 
@@ -30,8 +33,8 @@ struct EmResult {
 // and results are those of the plain loop. exact_log_likelihood = false
 // leaves the reported log_likelihood as that chunked sum (saves a pass; the
 // parameters are the same).
-EmResult em_fit(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations, double var_floor,
-                double tol = 1e-9, bool exact_log_likelihood = true);
+EmResult em_fit(const CpuDispatch& cpu, const float* x, uint32_t n, Gaussian1* comp, uint32_t* m,
+                uint32_t max_iterations, double var_floor, double tol = 1e-9, bool exact_log_likelihood = true);
 
 // The finite samples of x in bins of the given width (wider when more than
 // kMixtureCompressBins would be needed) from their minimum: per non-empty
@@ -44,7 +47,7 @@ uint32_t compress_samples(const float* x, uint32_t n, double shift, double width
 // its samples' mean with their weight and spread, so the E-step costs the
 // non-empty bins, not the samples. Plain log-likelihood sums. Returns the
 // number of non-empty bins.
-uint32_t em_fit_compressed(const float* x, uint32_t n, Gaussian1* comp, uint32_t* m, uint32_t max_iterations,
-                           double var_floor, double width, double* hist, double tol = 1e-9);
+uint32_t em_fit_compressed(const CpuDispatch& cpu, const float* x, uint32_t n, Gaussian1* comp, uint32_t* m,
+                           uint32_t max_iterations, double var_floor, double width, double* hist, double tol = 1e-9);
 
 }  // namespace ffseg

@@ -50,7 +50,8 @@ int64_t SmoothedRoi::plane_capacity(int64_t max_voxels) {
   return c > max_voxels ? max_voxels : c;
 }
 
-void SmoothedRoi::carve(Arena& a, int64_t max_voxels) {
+void SmoothedRoi::carve(Arena& a, int64_t max_voxels, const CpuDispatch& cpu) {
+  cpu_ = cpu;
   max_voxels_ = max_voxels > 0 ? max_voxels : 0;
   plane_cap_ = plane_capacity(max_voxels_);
   // Two sweep planes (a zero float before, between and after), then the
@@ -448,40 +449,22 @@ void SmoothedRoi::diffuse(uint32_t iterations) {
     w[s] = float(dt_ / (h * h));                       // dt / h_a^2
     ik[s] = float(1.0 / (h * h * kappa_ * kappa_));    // (1 / (h_a kappa))^2, eq. 5.2.2
   }
-  // Same arithmetic in every kernel (bit-identical); the widest the CPU runs.
-  const SmoothKernel k = kernel_available(kernel_) ? kernel_ : best_kernel();
+  // Same arithmetic in every kernel (bit-identical); the engine's choice.
+  const Isa k = cpu_.kernel(KernelFamily::smoothing);
   (void)k;  // only the x86 kernels read it
   for (uint32_t it = 0; it < iterations; ++it) {
 #if FFSEG_X86
-    if (k == SmoothKernel::avx512) {
+    if (k == Isa::avx512) {
       diffuse_avx512(buf_, scratch_, E0, E1, E2, w, ik);
       continue;
     }
-    if (k == SmoothKernel::avx2) {
+    if (k == Isa::avx2) {
       diffuse_avx2(buf_, scratch_, E0, E1, E2, w, ik);
       continue;
     }
 #endif
     diffuse_sse(buf_, scratch_, E0, E1, E2, w, ik);
   }
-}
-
-bool SmoothedRoi::kernel_available(SmoothKernel k) {
-  switch (k) {
-    case SmoothKernel::lanes4: return true;
-#if FFSEG_X86
-    case SmoothKernel::avx2: return __builtin_cpu_supports("avx2");
-    case SmoothKernel::avx512: return __builtin_cpu_supports("avx512f");
-#endif
-    default: return false;
-  }
-}
-
-SmoothKernel SmoothedRoi::best_kernel() {
-  static const SmoothKernel best = kernel_available(SmoothKernel::avx512) ? SmoothKernel::avx512
-                                   : kernel_available(SmoothKernel::avx2) ? SmoothKernel::avx2
-                                                                          : SmoothKernel::lanes4;
-  return best;
 }
 
 bool SmoothedRoi::contains(const int64_t lo[3], const int64_t hi[3]) const {

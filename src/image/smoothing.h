@@ -50,6 +50,7 @@
 #include <cmath>
 
 #include "arena.h"
+#include "cpu_dispatch.h"
 #include "volume.h"
 
 namespace ffseg {
@@ -71,25 +72,17 @@ enum class RoiStatus : int {
   bad_volume,  // the view is not valid
 };
 
-// The diffusion step's kernels: 4 lanes (baseline x86-64), 8 (AVX2), 16
-// (AVX-512F). Each lane performs the scalar code's operations in its order
-// without FMA, so all give bit-identical crops; auto picks the widest the CPU
-// runs.
-enum class SmoothKernel : int { automatic = -1, lanes4 = 0, avx2 = 1, avx512 = 2 };
-
 class SmoothedRoi {
  public:
-  static bool kernel_available(SmoothKernel k);
-  static SmoothKernel best_kernel();
-  // Test hook: force a kernel (ignored when the CPU lacks it).
-  void set_kernel(SmoothKernel k) { kernel_ = k; }
-
   static constexpr uint32_t kNoiseSamples = 8192;
 
   // Floats per sweep plane for a region of at most max_voxels voxels.
   static int64_t plane_capacity(int64_t max_voxels);
   // Carves room for a region of at most max_voxels voxels (see the header note).
-  void carve(Arena& a, int64_t max_voxels);
+  // cpu: the engine's kernels; the diffusion sweep runs cpu's smoothing kernel
+  // (4, 8 or 16 lanes, the scalar code's operations in its order without FMA,
+  // so every kernel gives the same crop).
+  void carve(Arena& a, int64_t max_voxels, const CpuDispatch& cpu);
 
   // Smooths the region [lo, hi) (index space, clipped to the grid, grown by
   // s.iterations voxels per side). On failure the crop is invalid, msg (if
@@ -196,7 +189,7 @@ class SmoothedRoi {
   int64_t grid_[3] = {0, 0, 0};
   int64_t st_[3] = {0, 0, 0};  // buffer stride of each index axis
   int64_t ext_[3] = {0, 0, 0}; // stored region's extent per index axis
-  SmoothKernel kernel_ = SmoothKernel::automatic;
+  CpuDispatch cpu_;
   int ax_[3] = {0, 1, 2};      // storage order, fastest first
   int64_t needed_ = 0;
   double A_[12] = {}, Ainv_[12] = {};

@@ -541,26 +541,6 @@ FFSEG_AVX512 __attribute__((flatten)) void solve_avx512(const View& v, double* a
 }
 #endif
 
-int g_forced_kernel = 0;  // EnvelopeCholesky::Kernel
-
-bool cpu_has(EnvelopeCholesky::Kernel k) {
-#if FFSEG_BC_X86
-  switch (k) {
-    case EnvelopeCholesky::Kernel::portable:
-      return true;
-    case EnvelopeCholesky::Kernel::avx2:
-      return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-    case EnvelopeCholesky::Kernel::avx512:
-      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx2") &&
-             __builtin_cpu_supports("fma");
-    default:
-      return false;
-  }
-#else
-  return k == EnvelopeCholesky::Kernel::portable;
-#endif
-}
-
 // Envelope computation shared by init() and stored_entries_for(): given perm
 // and iperm, writes the group starts (when gstart != nullptr) and returns the
 // stored doubles; *env = strictly-lower envelope, *bw = half-bandwidth.
@@ -597,29 +577,6 @@ uint64_t layout_groups(const CsrGraph& g, const uint32_t* perm, const uint32_t* 
 
 // ---- EnvelopeCholesky ------------------------------------------------------------------
 
-void EnvelopeCholesky::set_kernel(Kernel k) { g_forced_kernel = int(k); }
-
-EnvelopeCholesky::Kernel EnvelopeCholesky::active_kernel() {
-  const Kernel forced = Kernel(g_forced_kernel);
-  if (forced != Kernel::automatic && cpu_has(forced)) return forced;
-  if (cpu_has(Kernel::avx512)) return Kernel::avx512;
-  if (cpu_has(Kernel::avx2)) return Kernel::avx2;
-  return Kernel::portable;
-}
-
-const char* EnvelopeCholesky::kernel_name(Kernel k) {
-  switch (k) {
-    case Kernel::portable:
-      return "portable";
-    case Kernel::avx2:
-      return "avx2+fma";
-    case Kernel::avx512:
-      return "avx512f";
-    default:
-      return "automatic";
-  }
-}
-
 bool EnvelopeCholesky::stored_entries_for(const CsrGraph& g, uint32_t* scratch, uint64_t* entries,
                                           uint32_t* bandwidth) {
   if (scratch == nullptr) return false;
@@ -635,9 +592,10 @@ bool EnvelopeCholesky::stored_entries_for(const CsrGraph& g, uint32_t* scratch, 
   return true;
 }
 
-bool EnvelopeCholesky::init(Arena& arena, const CsrGraph& g, uint64_t capacity,
+bool EnvelopeCholesky::init(Arena& arena, const CsrGraph& g, const CpuDispatch& cpu, uint64_t capacity,
                             uint32_t* measure_scratch) {
   *this = EnvelopeCholesky();
+  cpu_ = cpu;
   n_ = g.n;
   npad_ = (n_ + 3) & ~3u;
   ngroups_ = npad_ / 4;
@@ -752,12 +710,12 @@ int EnvelopeCholesky::factor_with(double* const* y, const EnvelopeAssign* as) {
   const View v{ngroups_, gstart_, goff_, val_, invdiag_};
   uint32_t bad = 0;
   int rc = kOk;
-  switch (active_kernel()) {
+  switch (kernel()) {
 #if FFSEG_BC_X86
-    case Kernel::avx512:
+    case Isa::avx512:
       rc = factor_avx512(v, &bad, y, as);
       break;
-    case Kernel::avx2:
+    case Isa::avx2:
       rc = factor_avx2(v, &bad, y, as);
       break;
 #endif
@@ -787,12 +745,12 @@ void EnvelopeCholesky::load_permuted(const double* b, int cnt, std::size_t ld, d
 
 void EnvelopeCholesky::substitute(double* const* y, bool forward) const {
   const View v{ngroups_, gstart_, goff_, val_, invdiag_};
-  switch (active_kernel()) {
+  switch (kernel()) {
 #if FFSEG_BC_X86
-    case Kernel::avx512:
+    case Isa::avx512:
       solve_avx512(v, y[0], y[1], y[2], forward);
       break;
-    case Kernel::avx2:
+    case Isa::avx2:
       solve_avx2(v, y[0], y[1], y[2], forward);
       break;
 #endif

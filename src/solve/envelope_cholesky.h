@@ -13,13 +13,14 @@
 // Kernels. The factorisation is "up-looking" by row groups: for each group, a
 // 4 x 4 tile of dot products against every earlier column group, then a small
 // triangular fix-up, then the 4 x 4 diagonal block. The tile kernel has an
-// AVX-512F, an AVX2+FMA and a portable version, chosen at run time
-// (__builtin_cpu_supports); set_kernel() forces one (tests, benchmarks).
+// AVX-512F, an AVX2+FMA and a portable version: the engine's CpuDispatch
+// (cholesky family) picks one per instance at init().
 #pragma once
 #include <cstddef>
 #include <cstdint>
 
 #include "arena.h"
+#include "cpu_dispatch.h"
 #include "rcm.h"
 
 namespace ffseg {
@@ -64,8 +65,6 @@ class EnvelopeCholesky {
   static constexpr int kOutOfPattern = -3;         // add() outside the envelope / bad index
   static constexpr int kNotReady = -4;             // init() failed or not called
 
-  enum class Kernel : int { automatic = 0, portable = 1, avx2 = 2, avx512 = 3 };
-
   // Scratch words init() needs from the caller in measuring mode when no
   // capacity is given (the exact size then needs the ordering).
   static std::size_t measure_scratch_words(uint32_t n) { return 4 * std::size_t(n); }
@@ -88,9 +87,10 @@ class EnvelopeCholesky {
   //  capacity == 0: exact size. In the measuring pass this needs g and
   //    measure_scratch (measure_scratch_words(g.n) words, caller memory; the
   //    arena is not written).
+  // cpu: the engine's kernels; this instance runs cpu's cholesky kernel.
   // Returns false on a malformed graph, missing input, exhausted arena or
   // insufficient capacity. Both passes carve the same sequence of blocks.
-  bool init(Arena& arena, const CsrGraph& g, uint64_t capacity = 0,
+  bool init(Arena& arena, const CsrGraph& g, const CpuDispatch& cpu, uint64_t capacity = 0,
             uint32_t* measure_scratch = nullptr);
 
   // Zeroes the matrix (keeps the structure).
@@ -156,14 +156,11 @@ class EnvelopeCholesky {
   // Row (original numbering) whose pivot failed in the last factor(), or -1.
   int64_t failed_row() const { return failed_row_; }
 
-  // Kernel choice for all instances (not thread-safe against running factor/
-  // solve calls). automatic picks the best the CPU supports; a forced kernel
-  // the CPU lacks falls back to the best supported one.
-  static void set_kernel(Kernel k);
-  static Kernel active_kernel();
-  static const char* kernel_name(Kernel k);
+  // The tile kernel this instance runs (from init()'s dispatch).
+  Isa kernel() const { return cpu_.kernel(KernelFamily::cholesky); }
 
  private:
+  friend struct EnvelopeCholeskyTesting;
   int factor_with(double* const* y, const EnvelopeAssign* as);
   // factor_forward() with as (nullptr: the storage as it is) stored first.
   int forward_with(const double* b, std::size_t ld, const EnvelopeAssign* as);
@@ -189,6 +186,7 @@ class EnvelopeCholesky {
     return val_ + goff_[g] + (a & 3u) * (uint64_t(4) * g + 4 - s) + (b - s);
   }
 
+  CpuDispatch cpu_;
   uint32_t n_ = 0;
   uint32_t npad_ = 0;     // n rounded up to a multiple of 4 (extra rows: identity)
   uint32_t ngroups_ = 0;  // npad / 4
