@@ -89,7 +89,7 @@ FmStatus FastMarching::seed(int64_t v) {
   if (!begun_) return FmStatus::not_carved;
   if (v < 0 || v >= count_) return FmStatus::bad_seed;
   const uint32_t u = uint32_t(v);
-  if (state_[u] == kTrial && t_[u] == 0.0f) return FmStatus::ok;  // seeded twice
+  if (state_[u] == kTrial) return FmStatus::ok;  // seeded twice (every key is 0 before march())
   push_or_decrease(u, 0.0f);
   return FmStatus::ok;
 }
@@ -106,10 +106,11 @@ void FastMarching::sift_up(uint32_t at, Node x) {
   pos_[x.v] = at;
 }
 
+// A trial voxel's tentative time lives only in its heap entry: t_ holds final
+// times, so the upwind stencil reads one array and no states.
 void FastMarching::push_or_decrease(uint32_t v, float t) {
-  t_[v] = t;
   if (state_[v] == kTrial) {
-    sift_up(pos_[v], Node{t, v});  // decrease-key: the key only ever falls
+    if (t < heap_[pos_[v]].t) sift_up(pos_[v], Node{t, v});  // decrease-key
   } else {
     state_[v] = kTrial;
     sift_up(heap_size_++, Node{t, v});
@@ -142,18 +143,19 @@ FastMarching::Node FastMarching::pop_min() {
 }
 
 // The upwind update at voxel v = (i, j, k) from its accepted neighbours.
-float FastMarching::solve(uint32_t v, int64_t i, int64_t j, int64_t k, float speed) const {
+// t_ is +inf except at accepted voxels, so the smaller neighbour per axis is
+// the upwind value without a look at the states.
+float FastMarching::solve(uint32_t v, uint32_t i, uint32_t j, uint32_t k, float speed) const {
   if (!(speed > 0.0f)) return kInf;
-  const int64_t c[3] = {i, j, k};
-  const int64_t stride[3] = {1, n_[0], n_[0] * n_[1]};
+  const uint32_t c[3] = {i, j, k};
+  const uint32_t stride[3] = {1, uint32_t(n_[0]), uint32_t(n_[0] * n_[1])};
+  const uint32_t last[3] = {uint32_t(n_[0] - 1), uint32_t(n_[1] - 1), uint32_t(n_[2] - 1)};
   double tv[3];
   double wv[3];
   int m = 0;
   for (int a = 0; a < 3; ++a) {
-    float best = kInf;
-    if (c[a] > 0 && state_[v - stride[a]] == kAccepted) best = t_[v - stride[a]];
-    if (c[a] + 1 < n_[a] && state_[v + stride[a]] == kAccepted && t_[v + stride[a]] < best)
-      best = t_[v + stride[a]];
+    float best = c[a] > 0 ? t_[v - stride[a]] : kInf;
+    if (c[a] < last[a] && t_[v + stride[a]] < best) best = t_[v + stride[a]];
     if (best < kInf) {
       // Insertion into the ascending list (at most 3 entries).
       int p = m++;
@@ -186,36 +188,36 @@ float FastMarching::solve(uint32_t v, int64_t i, int64_t j, int64_t k, float spe
 
 FmStatus FastMarching::march(const float* speed, float time_cap) {
   if (!begun_) return FmStatus::not_carved;
-  const int64_t n0 = n_[0], n1 = n_[1], n2 = n_[2];
-  const int64_t n01 = n0 * n1;
+  // 32-bit coordinates: a 32-bit division is several times cheaper than a 64-bit one.
+  const uint32_t n0 = uint32_t(n_[0]), n1 = uint32_t(n_[1]), n2 = uint32_t(n_[2]);
+  const uint32_t n01 = n0 * n1;
   while (heap_size_ > 0) {
     if (heap_[0].t > time_cap) break;
     const Node top = pop_min();
     const uint32_t v = top.v;
     state_[v] = kAccepted;
+    t_[v] = top.t;
     ++accepted_;
-    const int64_t k = int64_t(v) / n01;
-    const int64_t r = int64_t(v) - k * n01;
-    const int64_t j = r / n0;
-    const int64_t i = r - j * n0;
+    const uint32_t k = v / n01;
+    const uint32_t r = v - k * n01;
+    const uint32_t j = r / n0;
+    const uint32_t i = r - j * n0;
     // The six face neighbours: only they can have v in their upwind stencil.
-    auto relax = [&](uint32_t u, int64_t iu, int64_t ju, int64_t ku) {
-      if (state_[u] == kAccepted) return;
+    // Accepted ones hold a finite time (and are final).
+    auto relax = [&](uint32_t u, uint32_t iu, uint32_t ju, uint32_t ku) {
+      if (t_[u] < kInf) return;
       const float t = solve(u, iu, ju, ku, speed[u]);
-      if (t < t_[u]) push_or_decrease(u, t);
+      if (t < kInf) push_or_decrease(u, t);
     };
     if (i > 0) relax(v - 1, i - 1, j, k);
     if (i + 1 < n0) relax(v + 1, i + 1, j, k);
-    if (j > 0) relax(uint32_t(v - n0), i, j - 1, k);
-    if (j + 1 < n1) relax(uint32_t(v + n0), i, j + 1, k);
-    if (k > 0) relax(uint32_t(v - n01), i, j, k - 1);
-    if (k + 1 < n2) relax(uint32_t(v + n01), i, j, k + 1);
+    if (j > 0) relax(v - n0, i, j - 1, k);
+    if (j + 1 < n1) relax(v + n0, i, j + 1, k);
+    if (k > 0) relax(v - n01, i, j, k - 1);
+    if (k + 1 < n2) relax(v + n01, i, j, k + 1);
   }
-  // Beyond the cap: whatever is still trial was not reached.
-  for (uint32_t p = 0; p < heap_size_; ++p) {
-    t_[heap_[p].v] = kInf;
-    state_[heap_[p].v] = kFar;
-  }
+  // Beyond the cap: whatever is still trial was not reached (its t_ is still +inf).
+  for (uint32_t p = 0; p < heap_size_; ++p) state_[heap_[p].v] = kFar;
   heap_size_ = 0;
   return FmStatus::ok;
 }

@@ -127,9 +127,9 @@ class FastMarching {
   void push_or_decrease(uint32_t v, float t);
   void sift_up(uint32_t at, Node x);
   Node pop_min();
-  float solve(uint32_t v, int64_t i, int64_t j, int64_t k, float speed) const;
+  float solve(uint32_t v, uint32_t i, uint32_t j, uint32_t k, float speed) const;
 
-  float* t_ = nullptr;
+  float* t_ = nullptr;       // final times: +inf until accepted
   uint8_t* state_ = nullptr;
   uint32_t* pos_ = nullptr;  // heap slot of a trial voxel
   Node* heap_ = nullptr;
