@@ -1,0 +1,114 @@
+// Convergence (src/deform/convergence.h): binary targets come to rest, polish,
+// and converge at the second rest; grey-level targets refine for at most
+// partial_volume_steps steps after the first rest; restart and reset.
+#include <doctest/doctest.h>
+
+#include "convergence.h"
+
+using ffseg::Convergence;
+using ffseg::ConvergenceRule;
+
+namespace {
+
+ConvergenceRule binary_rule() {
+  ConvergenceRule r;
+  r.convergence_mm = 0.05;
+  r.binary = true;
+  r.partial_volume_steps = 4;  // ignored for binary targets
+  return r;
+}
+
+ConvergenceRule grey_rule(uint32_t pv_steps) {
+  ConvergenceRule r;
+  r.convergence_mm = 0.05;
+  r.binary = false;
+  r.partial_volume_steps = pv_steps;
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("convergence, binary: rest, polish, rest again = converged") {
+  const ConvergenceRule r = binary_rule();
+  const uint32_t nv = 1000;
+  Convergence c;
+  CHECK_FALSE(c.converged());
+  CHECK_FALSE(c.polishing());
+  CHECK(c.moving_threshold(r) == doctest::Approx(4.0 * 0.05));
+  // Moving: nothing changes.
+  CHECK_FALSE(c.record(r, 0.2, 500, nv));
+  CHECK_FALSE(c.polishing());
+  // A small mean but more than 1 % of the vertices still moving: not at rest.
+  CHECK_FALSE(c.record(r, 0.01, 11, nv));
+  CHECK_FALSE(c.polishing());
+  // The mean exactly at convergence_mm is not below it.
+  CHECK_FALSE(c.record(r, 0.05, 0, nv));
+  CHECK_FALSE(c.polishing());
+  // First rest (10 of 1000 moving is within 1 %): polishing, not converged.
+  CHECK_FALSE(c.record(r, 0.049, 10, nv));
+  CHECK(c.polishing());
+  CHECK_FALSE(c.refining());
+  CHECK(c.moving_threshold(r) == doctest::Approx(0.75 * 0.05));
+  // Moving again while polishing: still polishing, not converged.
+  CHECK_FALSE(c.record(r, 0.3, 300, nv));
+  CHECK(c.polishing());
+  // Second rest: converged, and it stays so.
+  CHECK(c.record(r, 0.01, 0, nv));
+  CHECK(c.converged());
+  // restart(): moves again, but keeps having polished: the next rest converges.
+  c.restart();
+  CHECK_FALSE(c.converged());
+  CHECK(c.polishing());
+  CHECK(c.record(r, 0.01, 0, nv));
+  // reset() (a new sphere): polishing forgotten, two rests needed again.
+  c.reset();
+  CHECK_FALSE(c.polishing());
+  CHECK_FALSE(c.record(r, 0.01, 0, nv));
+  CHECK(c.record(r, 0.01, 0, nv));
+}
+
+TEST_CASE("convergence, grey-level: refining after the first rest, ended by a rest or the step budget") {
+  const uint32_t nv = 1000;
+  SUBCASE("the budget ends refining") {
+    const ConvergenceRule r = grey_rule(3);
+    Convergence c;
+    // The moving count does not matter for grey-level targets.
+    CHECK_FALSE(c.record(r, 0.01, 900, nv));
+    CHECK(c.refining());
+    CHECK_FALSE(c.polishing());
+    CHECK(c.moving_threshold(r) == doctest::Approx(4.0 * 0.05));  // no polishing factor
+    CHECK_FALSE(c.record(r, 0.4, 900, nv));  // refine step 1
+    CHECK_FALSE(c.record(r, 0.4, 900, nv));  // 2
+    CHECK(c.record(r, 0.4, 900, nv));        // 3 = partial_volume_steps
+    CHECK(c.converged());
+  }
+  SUBCASE("a rest ends refining") {
+    const ConvergenceRule r = grey_rule(10);
+    Convergence c;
+    CHECK_FALSE(c.record(r, 0.5, 0, nv));
+    CHECK_FALSE(c.refining());
+    CHECK_FALSE(c.record(r, 0.04, 0, nv));
+    CHECK(c.refining());
+    CHECK_FALSE(c.record(r, 0.2, 0, nv));
+    CHECK(c.record(r, 0.02, 0, nv));
+  }
+  SUBCASE("no partial-volume steps: the first rest converges") {
+    const ConvergenceRule r = grey_rule(0);
+    Convergence c;
+    CHECK_FALSE(c.record(r, 0.06, 0, nv));
+    CHECK(c.record(r, 0.04, 999, nv));
+    CHECK_FALSE(c.refining());
+  }
+  SUBCASE("restart forgets the refining phase and its steps") {
+    const ConvergenceRule r = grey_rule(2);
+    Convergence c;
+    CHECK_FALSE(c.record(r, 0.01, 0, nv));  // refining
+    CHECK_FALSE(c.record(r, 0.5, 0, nv));   // refine step 1
+    c.restart();
+    CHECK_FALSE(c.refining());
+    CHECK_FALSE(c.converged());
+    CHECK_FALSE(c.record(r, 0.01, 0, nv));  // refining again, from step 0
+    CHECK_FALSE(c.record(r, 0.5, 0, nv));   // 1
+    CHECK(c.record(r, 0.5, 0, nv));         // 2
+  }
+}
