@@ -83,8 +83,18 @@ ffseg_status convert_config(const ffseg_config* c, ffseg::Config* out, char* msg
 
 struct ffseg_engine {};
 
+// opaque: the pointer is the ffseg::Engine in the workspace
+
 // The first released ffseg_params layout ended after consecutive_background.
-static const size_t kParamsV1Size = offsetof(ffseg_params, consecutive_background) + sizeof(uint32_t);  // opaque: the pointer is the ffseg::Engine in the workspace
+static const size_t kParamsV1Size = offsetof(ffseg_params, consecutive_background) + sizeof(uint32_t);
+
+// Every table field exists in ffseg_params with the table's kind (the
+// field-by-field order and offsets are checked by tests/engine/test_params.cpp).
+#define FFSEG_PARAM_KIND(name, ctype, kind, def, lo, hi, bounds, unit, doc)                              \
+  static_assert(sizeof(ffseg_params::name) == (ffseg::ParamKind::kind == ffseg::ParamKind::U32 ? 4 : 8), \
+                #name ": ffseg_params and param_table.h disagree on the type");
+FFSEG_PARAM_TABLE(FFSEG_PARAM_KIND)
+#undef FFSEG_PARAM_KIND
 
 extern "C" {
 
@@ -193,25 +203,9 @@ FFSEG_API void ffseg_params_init_default(ffseg_params* p) {
   const ffseg::Params d;
   std::memset(p, 0, sizeof *p);
   p->struct_size = sizeof(ffseg_params);
-  p->target_mode = uint32_t(d.target_mode);
-  p->lambda_laplacian = d.lambda_laplacian;
-  p->lambda_position = d.lambda_position;
-  p->lambda_uniform = d.lambda_uniform;
-  p->step_size = d.step_size;
-  p->flip_tau = d.flip_tau;
-  p->search_range_mm = d.search_range_mm;
-  p->search_step_mm = d.search_step_mm;
-  p->convergence_mm = d.convergence_mm;
-  p->diffusion_iterations = d.diffusion_iterations;
-  p->consecutive_background = d.consecutive_background;
-  p->smoothing_iterations = d.smoothing_iterations;
-  p->bin_min_count = d.bin_min_count;
-  p->smoothing_kappa = d.smoothing_kappa;
-  p->intensity_gamma = d.intensity_gamma;
-  p->sigma_floor_fraction = d.sigma_floor_fraction;
-  p->bin_radius = d.bin_radius;
-  p->bin_separation = d.bin_separation;
-  p->partial_volume_steps = d.partial_volume_steps;
+#define FFSEG_PARAM_OUT(name, ctype, kind, def, lo, hi, bounds, unit, doc) p->name = decltype(p->name)(d.name);
+  FFSEG_PARAM_TABLE(FFSEG_PARAM_OUT)
+#undef FFSEG_PARAM_OUT
 }
 
 #define FFSEG_REQUIRE_ENGINE(e)                                   \
@@ -241,25 +235,9 @@ static ffseg_status set_params_call(ffseg_engine* e, const ffseg_params* p) {
     return FFSEG_ERR_INVALID_ARGUMENT;
   }
   ffseg::Params q;
-  q.target_mode = ffseg::TargetMode(full.target_mode);
-  q.lambda_laplacian = full.lambda_laplacian;
-  q.lambda_position = full.lambda_position;
-  q.lambda_uniform = full.lambda_uniform;
-  q.step_size = full.step_size;
-  q.flip_tau = full.flip_tau;
-  q.search_range_mm = full.search_range_mm;
-  q.search_step_mm = full.search_step_mm;
-  q.convergence_mm = full.convergence_mm;
-  q.diffusion_iterations = full.diffusion_iterations;
-  q.consecutive_background = full.consecutive_background;
-  q.smoothing_iterations = full.smoothing_iterations;
-  q.bin_min_count = full.bin_min_count;
-  q.smoothing_kappa = full.smoothing_kappa;
-  q.intensity_gamma = full.intensity_gamma;
-  q.sigma_floor_fraction = full.sigma_floor_fraction;
-  q.bin_radius = full.bin_radius;
-  q.bin_separation = full.bin_separation;
-  q.partial_volume_steps = full.partial_volume_steps;
+#define FFSEG_PARAM_IN(name, ctype, kind, def, lo, hi, bounds, unit, doc) q.name = decltype(q.name)(full.name);
+  FFSEG_PARAM_TABLE(FFSEG_PARAM_IN)
+#undef FFSEG_PARAM_IN
   return to_status(en->set_params(q));
 }
 

@@ -10,8 +10,12 @@
 
 namespace ffseg {
 
+// The range the engine searches when params.search_range_mm is 0 (automatic):
+// far enough for a sphere placed well inside an organ to reach its surface.
+constexpr double kBinarySearchRangeMm = 80;
+
 struct SearchSettings {
-  double range_mm = 20;
+  double range_mm = kBinarySearchRangeMm;
   double step_mm = 0.5;
 };
 

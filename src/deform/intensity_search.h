@@ -45,8 +45,12 @@
 
 namespace ffseg {
 
+// R_s when params.search_range_mm is 0 (automatic): grey-level targets search
+// a shorter way than binary ones (each sample reads the intensity model).
+constexpr double kIntensitySearchRangeMm = 20;
+
 struct IntensitySearchSettings {
-  double range_mm = 20;                 // R_s
+  double range_mm = kIntensitySearchRangeMm;  // R_s
   double step_mm = 0;                   // sample spacing; <= 0: half the smallest voxel spacing
   double gamma = 0.05;                  // Gamma on the peak-normalised g, (0, 1)
   uint32_t consecutive_background = 3;  // N

@@ -12,59 +12,6 @@
 
 namespace ffseg {
 
-namespace {
-constexpr uint32_t kMaxObjects = 64;
-constexpr int64_t kMaxRoi = int64_t(1) << 40;
-
-bool in_range(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
-bool in_open_closed(double v, double lo, double hi) { return std::isfinite(v) && v > lo && v <= hi; }
-}  // namespace
-
-Err check_config(const Config& c, char* msg, size_t n) {
-  if (c.max_objects < 1 || c.max_objects > kMaxObjects) {
-    std::snprintf(msg, n, "config.max_objects = %u is outside 1..%u", c.max_objects, kMaxObjects);
-    return Err::invalid_argument;
-  }
-  if (c.mesh_resolution < CubeSphere::kMinN || c.mesh_resolution > CubeSphere::kMaxN) {
-    std::snprintf(msg, n, "config.mesh_resolution = %u is outside %u..%u", c.mesh_resolution,
-                  CubeSphere::kMinN, CubeSphere::kMaxN);
-    return Err::invalid_argument;
-  }
-  if (c.max_roi_voxels < 0 || c.max_roi_voxels > kMaxRoi) {
-    std::snprintf(msg, n, "config.max_roi_voxels = %lld is outside 0..2^40", (long long)c.max_roi_voxels);
-    return Err::invalid_argument;
-  }
-  return Err::ok;
-}
-
-Err check_params(const Params& p, char* msg, size_t n) {
-  const char* bad = nullptr;
-  if (p.target_mode != TargetMode::binary && p.target_mode != TargetMode::intensity) bad = "target_mode (0 or 1)";
-  else if (!in_open_closed(p.lambda_laplacian, 0, 1e6)) bad = "lambda_laplacian (0, 1e6]";
-  else if (!in_open_closed(p.lambda_position, 0, 1e6)) bad = "lambda_position (0, 1e6]";
-  else if (!in_range(p.lambda_uniform, 0, 1e6)) bad = "lambda_uniform [0, 1e6]";
-  else if (!in_open_closed(p.step_size, 0, 1)) bad = "step_size (0, 1]";
-  else if (!(in_range(p.flip_tau, 0, 1) && p.flip_tau < 1)) bad = "flip_tau [0, 1)";
-  else if (!in_range(p.search_range_mm, 0, 1e4)) bad = "search_range_mm [0, 1e4]";
-  else if (!in_range(p.search_step_mm, 0, 100)) bad = "search_step_mm [0, 100]";
-  else if (!in_range(p.convergence_mm, 0, 100)) bad = "convergence_mm [0, 100]";
-  else if (p.diffusion_iterations > 100) bad = "diffusion_iterations 0..100";
-  else if (p.partial_volume_steps > 1000) bad = "partial_volume_steps 0..1000";
-  else if (p.consecutive_background < 1 || p.consecutive_background > 64) bad = "consecutive_background 1..64";
-  else if (p.smoothing_iterations > 100) bad = "smoothing_iterations 0..100";
-  else if (p.bin_min_count > (1u << 31)) bad = "bin_min_count 0..2^31";
-  else if (!in_range(p.smoothing_kappa, 0, 1e9)) bad = "smoothing_kappa [0, 1e9]";
-  else if (!(in_range(p.intensity_gamma, 0, 1) && p.intensity_gamma > 0 && p.intensity_gamma < 1)) bad = "intensity_gamma (0, 1)";
-  else if (!in_range(p.sigma_floor_fraction, 0, 1)) bad = "sigma_floor_fraction [0, 1]";
-  else if (!in_range(p.bin_radius, 0, 1e9)) bad = "bin_radius [0, 1e9]";
-  else if (!in_range(p.bin_separation, 0, 1e9)) bad = "bin_separation [0, 1e9]";
-  if (bad) {
-    std::snprintf(msg, n, "params.%s: value out of range", bad);
-    return Err::invalid_argument;
-  }
-  return Err::ok;
-}
-
 // Doubles reserved for the envelope factor: measured stored entries per row
 // are 5.06 n + 5 for n = 2..128 under RCM (tests/test_deform.cpp checks the
 // bound); a closed form keeps the size query exact without building the mesh.

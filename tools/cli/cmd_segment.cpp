@@ -20,6 +20,7 @@
 #include "mesh_io.h"
 #include "metrics.h"
 #include "overlay.h"
+#include "param_args.h"
 #include "report_json.h"
 
 namespace ffseg_cli {
@@ -38,26 +39,12 @@ const char* target_name(uint32_t t) {
   return t == FFSEG_TARGET_BINARY ? "binary" : t == FFSEG_TARGET_INTENSITY ? "intensity" : "unknown";
 }
 
-// Every field of ffseg_params, settable with --param NAME=VALUE.
-struct ParamField {
-  const char* name;
-  size_t offset;
-  bool is_u32;
-};
-#define FFSEG_PF(f, u) {#f, offsetof(ffseg_params, f), u}
-const ParamField kParamFields[] = {
-    FFSEG_PF(target_mode, true),         FFSEG_PF(lambda_laplacian, false),
-    FFSEG_PF(lambda_position, false),    FFSEG_PF(lambda_uniform, false),
-    FFSEG_PF(step_size, false),          FFSEG_PF(flip_tau, false),
-    FFSEG_PF(search_range_mm, false),    FFSEG_PF(search_step_mm, false),
-    FFSEG_PF(convergence_mm, false),     FFSEG_PF(diffusion_iterations, true),
-    FFSEG_PF(consecutive_background, true),
-    FFSEG_PF(smoothing_iterations, true),   FFSEG_PF(bin_min_count, true),
-    FFSEG_PF(smoothing_kappa, false),       FFSEG_PF(intensity_gamma, false),
-    FFSEG_PF(sigma_floor_fraction, false),  FFSEG_PF(bin_radius, false),
-    FFSEG_PF(bin_separation, false),        FFSEG_PF(partial_volume_steps, true),
-};
-#undef FFSEG_PF
+// The parameters' names, comma-separated, in the table's order.
+std::string param_names(const char* sep = ", ") {
+  std::string s;
+  for (unsigned i = 0; i < ffseg::kParamCount; ++i) s += std::string(i ? sep : "") + ffseg::kParamSpecs[i].name;
+  return s;
+}
 
 uint32_t parse_target(const std::string& v, const std::string& what) {
   if (v == "binary") return FFSEG_TARGET_BINARY;
@@ -65,43 +52,52 @@ uint32_t parse_target(const std::string& v, const std::string& what) {
   return uint32_t(parse_int(v, what + " (binary, intensity or a number)", 0, 0xFFFFFFFFLL));
 }
 
+// --param NAME=VALUE: any row of the parameter table (param_args.h); a value
+// outside the table's range is refused here, naming the range.
 void set_param(ffseg_params* p, const std::string& assignment) {
   const size_t eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)
     fail(kExitUsage, "--param: expected NAME=VALUE, got '" + assignment + "'");
   const std::string name = assignment.substr(0, eq), value = assignment.substr(eq + 1);
-  for (const ParamField& f : kParamFields) {
-    if (name != f.name) continue;
+  for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
+    const ParamField f = param_field(i);
+    if (name != f.spec->name) continue;
     char* base = reinterpret_cast<char*>(p) + f.offset;
-    if (name == "target_mode") {
-      const uint32_t t = parse_target(value, "--param target_mode");
-      std::memcpy(base, &t, sizeof t);
-    } else if (f.is_u32) {
-      const uint32_t v = uint32_t(parse_int(value, "--param " + name, 0, 0xFFFFFFFFLL));
-      std::memcpy(base, &v, sizeof v);
+    const std::string what = "--param " + name;
+    double v;
+    if (name == "target_mode") v = parse_target(value, what);
+    else if (f.spec->kind == ffseg::ParamKind::U32) v = double(parse_int(value, what, 0, 0xFFFFFFFFLL));
+    else v = parse_double(value, what);
+    if (!ffseg::param_in_range(*f.spec, v)) {
+      char range[48];
+      ffseg::param_range_text(*f.spec, range, sizeof range);
+      fail(kExitUsage, what + ": " + value + " is outside " + range +
+                           (f.spec->unit[0] ? std::string(" ") + f.spec->unit : std::string()) + " (" + f.spec->doc + ")");
+    }
+    if (f.spec->kind == ffseg::ParamKind::U32) {
+      const uint32_t u = uint32_t(v);
+      std::memcpy(base, &u, sizeof u);
     } else {
-      const double v = parse_double(value, "--param " + name);
       std::memcpy(base, &v, sizeof v);
     }
     return;
   }
-  std::string known;
-  for (const ParamField& f : kParamFields) known += std::string(known.empty() ? "" : ", ") + f.name;
-  fail(kExitUsage, "--param: unknown parameter '" + name + "' (known: " + known + ")");
+  fail(kExitUsage, "--param: unknown parameter '" + name + "' (known: " + param_names() + ")");
 }
 
 ffseg_tools::Json params_json(const ffseg_params& p) {
   ffseg_tools::Json j = ffseg_tools::Json::object();
-  for (const ParamField& f : kParamFields) {
+  for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
+    const ParamField f = param_field(i);
     const char* base = reinterpret_cast<const char*>(&p) + f.offset;
-    if (f.is_u32) {
+    if (f.spec->kind == ffseg::ParamKind::U32) {
       uint32_t v;
       std::memcpy(&v, base, sizeof v);
-      j.set(f.name, v);
+      j.set(f.spec->name, v);
     } else {
       double v;
       std::memcpy(&v, base, sizeof v);
-      j.set(f.name, v);
+      j.set(f.spec->name, v);
     }
   }
   j.set("target_mode_name", target_name(p.target_mode));
@@ -333,15 +329,9 @@ const char* const kSegmentUsageText =
     "                          (grey-level model); default: @TARGET@\n"
     "  --mesh-resolution N     each mesh has 6 N^2 vertices; 2..1024 (default 33)\n"
     "  --max-steps K           stop after K deformation steps (default 200)\n"
-    "  --param NAME=VALUE      set an engine parameter (repeatable): target_mode,\n"
-    "                          lambda_laplacian, lambda_position, lambda_uniform,\n"
-    "                          step_size, flip_tau, search_range_mm, search_step_mm,\n"
-    "                          convergence_mm, diffusion_iterations,\n"
-    "                          consecutive_background, smoothing_iterations,\n"
-    "                          bin_min_count, smoothing_kappa, intensity_gamma,\n"
-    "                          sigma_floor_fraction, bin_radius, bin_separation,\n"
-    "                          partial_volume_steps\n"
-    "                          (units and ranges: include/ffseg.h)\n"
+    "  --param NAME=VALUE      set an engine parameter (repeatable); NAME, default, range:\n"
+    "@PARAMS@"
+    "                          (full text: include/ffseg.h)\n"
     "  --max-roi-voxels N      engine crop budget per object (default: the voxel\n"
     "                          count, at most 2^26)\n"
     "\n"
@@ -358,6 +348,21 @@ std::string segment_usage() {
   std::string s = kSegmentUsageText;
   const size_t p = s.find("@TARGET@");
   if (p != std::string::npos) s.replace(p, 8, target_name(kDefaultTarget));
+  // One line per row of the parameter table.
+  std::string rows;
+  for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
+    const ffseg::ParamSpec& f = ffseg::kParamSpecs[i];
+    char line[160], range[48], def[24];
+    ffseg::param_range_text(f, range, sizeof range);
+    // target_mode's default here is --target's, not the engine's.
+    if (std::strcmp(f.name, "target_mode") == 0) std::snprintf(def, sizeof def, "%s", target_name(kDefaultTarget));
+    else std::snprintf(def, sizeof def, "%g", f.default_value);
+    std::snprintf(line, sizeof line, "                            %-22s %-9s %s%s%s\n", f.name, def, range,
+                  f.unit[0] ? " " : "", f.unit);
+    rows += line;
+  }
+  const size_t q = s.find("@PARAMS@");
+  if (q != std::string::npos) s.replace(q, 8, rows);
   return s;
 }
 
