@@ -23,7 +23,7 @@ DEB_PACKAGES += python3-numpy python3-pytest python3-distributed python3-nibabel
 # Rust and C# bindings, ABI check (issue 17): Debian's rustc 1.63 / cargo, Mono, libabigail.
 DEB_PACKAGES += rustc cargo mono-mcs mono-runtime abigail-tools
 
-.PHONY: all build deps test demo bench install clean fuzz fuzz-smoke check-sanitizers check-portable check-python \
+.PHONY: all build deps test demo bench install clean fuzz fuzz-smoke fuzz-soak coverage check-sanitizers check-portable check-python \
         check-bindings check-abi abi-baseline
 
 all: build
@@ -101,7 +101,9 @@ clean:
 # ---- robustness: libFuzzer targets and sanitizer builds (FUZZING.md) -----------
 #   make fuzz              build the three fuzzers into build-fuzz/ (clang)
 #   make fuzz-smoke        run each for FUZZ_SECONDS on a copy of its corpus; any
-#                          finding (crash, sanitizer report, leak, timeout) fails
+#                          finding (crash, sanitizer report, leak, timeout) fails;
+#                          prints each target's executions per second
+#   make fuzz-soak         the same on persistent corpora, totals appended to FUZZING.md
 #   make check-sanitizers  ctest under ASan+UBSan (build-asan/), and the thread
 #                          tests under TSan (build-tsan/)
 FUZZ_BUILD ?= build-fuzz
@@ -117,22 +119,12 @@ fuzz: deps
 	cmake --build $(FUZZ_BUILD) -j $(JOBS)
 
 fuzz-smoke: fuzz
-	@set -e; mkdir -p $(FUZZ_BUILD)/findings; \
-	for t in $(FUZZ_TARGETS); do \
-	  case $$t in volume) len=4096;; nifti) len=8192;; calls) len=512;; *) len=4096;; esac; \
-	  dict=""; [ -f fuzz/$$t.dict ] && dict="-dict=fuzz/$$t.dict"; \
-	  work=$(FUZZ_BUILD)/smoke/$$t; rm -rf $$work; mkdir -p $$work; cp fuzz/corpus/$$t/* $$work/; \
-	  echo "== fuzz_$$t: $(FUZZ_SECONDS) s, max_len $$len"; \
-	  if ! ./$(FUZZ_BUILD)/fuzz_$$t $$work $$dict -max_len=$$len -max_total_time=$(FUZZ_SECONDS) \
-	       -timeout=30 -rss_limit_mb=2048 -print_final_stats=1 \
-	       -artifact_prefix=$(FUZZ_BUILD)/findings/$$t- > $(FUZZ_BUILD)/smoke-$$t.log 2>&1; then \
-	    tail -n 60 $(FUZZ_BUILD)/smoke-$$t.log; \
-	    echo "fuzz-smoke: fuzz_$$t found a problem: see $(FUZZ_BUILD)/findings/ and $(FUZZ_BUILD)/smoke-$$t.log"; \
-	    exit 1; \
-	  fi; \
-	  grep -E "^#[0-9]+[[:space:]]+DONE" $(FUZZ_BUILD)/smoke-$$t.log || true; \
-	  grep -E "^stat::number_of_executed_units" $(FUZZ_BUILD)/smoke-$$t.log || true; \
-	done; echo "fuzz-smoke: no findings"
+	FUZZ_BUILD=$(FUZZ_BUILD) fuzz/run.sh smoke $(FUZZ_SECONDS) "$(FUZZ_TARGETS)"
+
+# Every target FUZZ_SECONDS on its persistent corpus ($(FUZZ_BUILD)/soak/), one
+# after the other; appends the totals to FUZZING.md's soak log.
+fuzz-soak: fuzz
+	FUZZ_BUILD=$(FUZZ_BUILD) fuzz/run.sh soak $(FUZZ_SECONDS) "$(FUZZ_TARGETS)"
 
 # The portable code paths alone (what a non-x86 CPU builds): every test must
 # pass with the same results as the x86 kernels.

@@ -11,6 +11,19 @@
 // Every call must return a documented status; every refusal must leave the
 // engine usable: after the sequence a clean segmentation still works (params
 // reset, volume set, sphere placed, a step, a full extraction).
+//
+// Work per input is bounded so that the target runs at a thousand inputs per
+// second under ASan and UBSan. A step is what costs (the first one of an
+// engine most: the patch certificate is built lazily), so each object stepped
+// takes n^2 from kWorkBudget, the final check's step included; a step that
+// would exceed it is skipped (the final check then verifies everything but
+// the step). The config block gives meshes of n <= 4 and up to 4 objects; a
+// raw config asking for objects * n^2 > kCreateBudget is created only where
+// creation must fail, and the small fallback engine runs the sequence. So one object at n = 2 steps
+// once per input, in the sequence or in the final check: with ASan and UBSan
+// an engine's first step at n = 2 costs about 0.65 ms of CPU, twice all the
+// rest of an input. Larger and multi-object steps are fuzz_volume's (n <= 4)
+// and the unit tests' part; every call and every refusal stays reachable.
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -21,10 +34,16 @@
 
 #include "ffseg.h"
 #include "fuzz_reader.h"
+#include "fuzz_workspace.h"
 
 namespace {
 
 using ffseg_fuzz::Reader;
+
+// n^2 per object stepped (a step's cost grows with its 6 n^2 vertices).
+constexpr uint64_t kWorkBudget = 4;
+// objects * n^2 of the largest engine created (the config block's 4 x 4^2).
+constexpr uint64_t kCreateBudget = 64;
 
 [[noreturn]] void finding(const char* what, long long st) {
   std::fprintf(stderr, "fuzz_calls: %s (%lld)\n", what, st);
@@ -114,20 +133,6 @@ const Phantoms& phantoms() {
   return p;
 }
 
-struct Workspace {
-  void* mem = nullptr;
-  size_t cap = 0;
-  ~Workspace() { std::free(mem); }
-  // An exact block of `bytes` plus the alignment slack, so that ASan sees any
-  // write past the end of what the engine was given.
-  unsigned char* get(size_t bytes, size_t misalign) {
-    std::free(mem);
-    mem = nullptr;
-    if (posix_memalign(&mem, 64, bytes + misalign + 1) != 0) std::abort();
-    cap = bytes + misalign + 1;
-    return static_cast<unsigned char*>(mem) + misalign;
-  }
-};
 
 ffseg_config valid_config(uint32_t objects, uint32_t n) {
   ffseg_config c;
@@ -149,7 +154,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   ffseg_config_init_default(&cfg);
   const uint8_t cflags = in.take<uint8_t>();
   cfg.max_objects = (cflags & 1) ? pick_u32(in) : 1 + in.take<uint8_t>() % 4;
-  cfg.mesh_resolution = (cflags & 2) ? pick_u32(in) : 2 + in.take<uint8_t>() % 7;
+  cfg.mesh_resolution = (cflags & 2) ? pick_u32(in) : 2 + in.take<uint8_t>() % 3;
   if (cflags & 4) cfg.max_roi_voxels = in.take<int64_t>();
   else cfg.max_roi_voxels = int64_t(1) << (8 + in.take<uint8_t>() % 12);
   if (cflags & 8) cfg.struct_size = in.take<uint8_t>();
@@ -160,19 +165,22 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   size_t need = 0;
   const ffseg_status ws_st = ffseg_workspace_size(&cfg, &need);
   check_status(ws_st, "workspace_size");
-  Workspace ws;
+  // An exact block (ASan poisons everything around it, fuzz_workspace.h).
+  static ffseg_fuzz::ReusedBlock ws;
   ffseg_engine* e = reinterpret_cast<ffseg_engine*>(&ws);  // must be overwritten
+  int64_t offered = int64_t(need) + size_delta;
+  if (offered < 0) offered = 0;
+  const bool would_succeed = misalign == 0 && offered >= int64_t(need);
+  const uint64_t engine_cost = uint64_t(cfg.max_objects) * cfg.mesh_resolution * cfg.mesh_resolution;
   if (ws_st == FFSEG_OK) {
-    if (need > (size_t(4) << 20)) {
-      // Too big to try here; creation is exercised with the fallback below.
+    if (need > (size_t(4) << 20) || (would_succeed && engine_cost > kCreateBudget)) {
+      // Too big to run here; creation is exercised with the fallback below.
       e = nullptr;
     } else {
-      int64_t offered = int64_t(need) + size_delta;
-      if (offered < 0) offered = 0;
       unsigned char* mem = ws.get(size_t(offered), misalign);
       const ffseg_status st = ffseg_create(&cfg, mem, size_t(offered), &e);
       check_status(st, "create");
-      const bool should = misalign == 0 && offered >= int64_t(need);
+      const bool should = would_succeed;
       if ((st == FFSEG_OK) != should) finding("create: success does not match size/alignment", st);
       if (st != FFSEG_OK && e != nullptr) finding("create failed but *out is not NULL", st);
       if (st == FFSEG_ERR_WORKSPACE_TOO_SMALL && ffseg_last_error(nullptr)[0] == '\0')
@@ -186,7 +194,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   if (e == nullptr) {
     // Fall back to a small valid engine so the call sequence still runs.
-    cfg = valid_config(1 + (cflags >> 7), 2 + (cflags & 3));
+    cfg = valid_config(1 + (cflags >> 7), 2 + (cflags & 3) % 3);
     if (ffseg_workspace_size(&cfg, &need) != FFSEG_OK) finding("fallback config refused", 0);
     if (ffseg_create(&cfg, ws.get(need, 0), need, &e) != FFSEG_OK) finding("fallback create failed", 0);
   }
@@ -196,6 +204,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::fprintf(stderr, "engine: %u objects, n = %u, %zu bytes\n", objects, n, need);
   const size_t NV = size_t(6) * n * n;
   const size_t NT = size_t(12) * n * n - 4;
+  uint64_t work = 0;
 
   bool have_volume = false;
   int volume_kind = 0;
@@ -281,6 +290,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       }
       case 3: {  // step
+        uint64_t stepped = 0;
+        for (bool b : placed) stepped += b ? 1 : 0;
+        const uint64_t cost = uint64_t(n) * n * (stepped ? stepped : 1);
+        if (work + cost > kWorkBudget) break;  // over budget: skipped
+        work += cost;
         ffseg_step_info info;
         std::memset(&info, 0, sizeof info);
         const uint8_t mode = in.take<uint8_t>();
@@ -408,8 +422,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   placed[objects - 1] = true;
   for (uint32_t o = 0; o < objects; ++o)  // replaces whatever the sequence left
     if (placed[o] && ffseg_init_sphere(e, o, c, 4.0) != FFSEG_OK) finding("usable: init_sphere", o);
-  const ffseg_status st = ffseg_step(e, nullptr);
-  if (st != FFSEG_OK && st != FFSEG_CONVERGED) finding("usable: step", st);
+  uint64_t stepped = 0;
+  for (bool b : placed) stepped += b ? 1 : 0;
+  if (work + uint64_t(n) * n * stepped <= kWorkBudget) {
+    const ffseg_status st = ffseg_step(e, nullptr);
+    if (st != FFSEG_OK && st != FFSEG_CONVERGED) finding("usable: step", st);
+  }
   std::vector<float> xyz(3 * NV);
   std::vector<uint32_t> tris(3 * NT);
   size_t nv = 0, nt = 0;

@@ -9,10 +9,11 @@
 //                 bit3 raw affine    (16 x f64)  else spacing/rotation/translation bytes
 //                 bit4 raw rescale   (2 x f64)   else slope 1, intercept 0
 //                 bit5 raw sphere    (4 x f64)   else centre/radius bytes
-//                 bit6 params        (6 bytes)   else the defaults
+//                 bit6 params        (7 bytes)   else the defaults
 //                 bit7 re-set a broken copy of the descriptor after the steps
-//   u8  mesh      mesh_resolution = 2 + mesh % 7   (2..8)
-//   u8  steps     ffseg_step calls = steps % 5
+//   u8  mesh      mesh_resolution = 2 + mesh % 3   (2..4)
+//   u8  steps     ffseg_step calls = steps % 8 within the budget below;
+//                 bit7: also rasterize through reversed-k strides
 //   ...  the fields the flags select, in the order above
 //   rest          the voxel bytes: data_bytes is exactly their count
 //
@@ -21,6 +22,18 @@
 // call returns a documented status; a refused volume leaves a message and no
 // volume; accepted volumes can be sampled at their 8 corner voxels; meshes have
 // 6 n^2 finite vertices; rasterized masks hold only 0 and 1.
+//
+// Work per input is bounded so that the target runs at about a thousand inputs
+// per second under ASan and UBSan: at most 4096 voxels (the input's length; a
+// larger grid needs overlapping strides, which are refused), meshes of n <= 4,
+// and steps costing n^2 each (grey-level steps 2 n^2) from kStepBudget: two
+// binary steps at n = 2 or one grey-level step, one binary step at n = 3, none
+// at n = 4 (bit7's step after the refused re-set is one of these). An engine's
+// first step is the expensive one (about 0.65 ms of CPU at n = 2 here).
+// What this target is after is the volume: odd layouts, affines and values
+// through every stage; mesh sizes and call orders are fuzz_calls' part.
+// Every stage stays reachable: grey-level targets and every parameter through
+// the params block.
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -31,10 +44,14 @@
 
 #include "ffseg.h"
 #include "fuzz_reader.h"
+#include "fuzz_workspace.h"
 
 namespace {
 
 using ffseg_fuzz::Reader;
+
+// Mesh-resolution-squared steps per input (a step's cost grows with 6 n^2).
+constexpr int kStepBudget = 9;
 
 [[noreturn]] void finding(const char* what, ffseg_status st) {
   std::fprintf(stderr, "fuzz_volume: %s (status %d)\n", what, int(st));
@@ -58,9 +75,9 @@ size_t type_size(uint32_t t) {
 }
 
 struct Engine {
-  void* ws = nullptr;
   ffseg_engine* e = nullptr;
   explicit Engine(uint32_t n) {
+    static ffseg_fuzz::ReusedBlock block;
     ffseg_config c;
     ffseg_config_init_default(&c);
     c.max_objects = 2;
@@ -68,14 +85,10 @@ struct Engine {
     c.max_roi_voxels = int64_t(1) << 16;
     size_t bytes = 0;
     if (ffseg_workspace_size(&c, &bytes) != FFSEG_OK) finding("workspace_size refused a valid config", -1);
-    if (posix_memalign(&ws, 64, bytes) != 0) std::abort();
-    const ffseg_status st = ffseg_create(&c, ws, bytes, &e);
+    const ffseg_status st = ffseg_create(&c, block.get(bytes, 0), bytes, &e);
     if (st != FFSEG_OK) finding("create failed with the exact size", st);
   }
-  ~Engine() {
-    ffseg_destroy(e);
-    std::free(ws);
-  }
+  ~Engine() { ffseg_destroy(e); }
 };
 
 void to_world(const double A[16], const double ijk[3], double w[3]) {
@@ -88,8 +101,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Reader in{data, size};
   const uint32_t type = in.take<uint8_t>() % 8;
   const uint8_t flags = in.take<uint8_t>();
-  const uint32_t n = 2 + in.take<uint8_t>() % 7;
-  const int nsteps = in.take<uint8_t>() % 5;
+  const uint32_t n = 2 + in.take<uint8_t>() % 3;
+  const uint8_t steps_byte = in.take<uint8_t>();
+  const int nsteps_asked = steps_byte % 8;
   const int64_t es = int64_t(type_size(type));
 
   ffseg_volume v;
@@ -169,13 +183,25 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   ffseg_params prm;
   ffseg_params_init_default(&prm);
   const bool set_params = (flags & 64) != 0;
+  // Without a params block the defaults, except for a 16 mm search instead of
+  // the automatic 80 mm: sampling 80 mm along every normal at a quarter of the
+  // finest 0.25 mm spacing was the largest cost of a step here. The automatic
+  // range stays reachable (a params block with a range byte of 0).
+  prm.search_range_mm = 16;
   if (set_params) {
     prm.step_size = (1 + in.take<uint8_t>()) / 256.0;
-    prm.search_range_mm = 0.5 + in.take<uint8_t>() * 0.25;
+    prm.search_range_mm = in.take<uint8_t>() * 0.25;  // 0: the automatic range
     prm.search_step_mm = in.take<uint8_t>() * 0.05;
     prm.flip_tau = in.take<uint8_t>() / 256.0;
     prm.diffusion_iterations = in.take<uint8_t>() % 12;
     prm.lambda_uniform = in.take<uint8_t>() / 16.0;
+    // bit0 grey-level targets; bits 1-2 partial_volume_steps; bits 3-4
+    // smoothing_iterations; bits 5-7 intensity_gamma in (0, 1).
+    const uint8_t mode = in.take<uint8_t>();
+    prm.target_mode = (mode & 1) ? FFSEG_TARGET_INTENSITY : FFSEG_TARGET_BINARY;
+    prm.partial_volume_steps = (mode >> 1) & 3;
+    prm.smoothing_iterations = (mode >> 3) & 3;
+    prm.intensity_gamma = (1 + (mode >> 5)) / 9.0;
   }
 
   // The voxel bytes: an exact heap block, so any stray read is an ASan report.
@@ -187,7 +213,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
   Engine eng(n);
   ffseg_engine* e = eng.e;
-  if (set_params) expect_one_of(ffseg_set_params(e, &prm), {FFSEG_OK, FFSEG_ERR_INVALID_ARGUMENT}, "set_params");
+  expect_one_of(ffseg_set_params(e, &prm), {FFSEG_OK, FFSEG_ERR_INVALID_ARGUMENT}, "set_params");
 
   const ffseg_status sv = ffseg_set_volume(e, &v);
   static const bool verbose = std::getenv("FFSEG_FUZZ_VERBOSE") != nullptr;
@@ -220,23 +246,32 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     expect_one_of(ffseg_step(e, nullptr), {FFSEG_ERR_MISUSE}, "step without sphere");
     return 0;
   }
-  for (int s = 0; s < nsteps; ++s) {
+  // The step budget (see the top): grey-level steps count twice (the crop's
+  // smoothing and the model fit come on top of the binary step's work).
+  const int step_cost = int(n * n) * (prm.target_mode == FFSEG_TARGET_INTENSITY ? 2 : 1);
+  int budget = kStepBudget;
+  for (int s = 0; s < nsteps_asked && budget >= step_cost; ++s, budget -= step_cost) {
     ffseg_step_info info;
     std::memset(&info, 0, sizeof info);
     info.struct_size = sizeof info;
     const ffseg_status st = ffseg_step(e, &info);
     if (verbose) std::fprintf(stderr, "step: %d with_target %u moved %g %s\n", int(st), info.vertices_with_target[0],
                               info.mean_displacement_mm[0], ffseg_last_error(e));
+    // Grey-level targets: a sphere holding no voxel centre of its crop is
+    // SPHERE_OUTSIDE at the first step (finding 4 of FUZZING.md).
+    if (st == FFSEG_ERR_SPHERE_OUTSIDE && prm.target_mode == FFSEG_TARGET_INTENSITY) break;
     expect_one_of(st, {FFSEG_OK, FFSEG_CONVERGED, FFSEG_ERR_NUMERIC, FFSEG_ERR_ROI_TOO_LARGE}, "step");
     if (st < 0) break;
   }
-  if (flags & 128) {
+  if ((flags & 128) && budget >= step_cost) {
     // A broken descriptor is refused and the accepted volume stays.
     ffseg_volume bad = v;
     bad.data_bytes = 0;
     expect_one_of(ffseg_set_volume(e, &bad), {FFSEG_ERR_INVALID_VOLUME}, "set_volume with data_bytes 0");
     const ffseg_status st = ffseg_step(e, nullptr);
-    expect_one_of(st, {FFSEG_OK, FFSEG_CONVERGED, FFSEG_ERR_NUMERIC, FFSEG_ERR_ROI_TOO_LARGE}, "step after refused volume");
+    if (!(st == FFSEG_ERR_SPHERE_OUTSIDE && prm.target_mode == FFSEG_TARGET_INTENSITY))
+      expect_one_of(st, {FFSEG_OK, FFSEG_CONVERGED, FFSEG_ERR_NUMERIC, FFSEG_ERR_ROI_TOO_LARGE},
+                    "step after refused volume");
   }
 
   size_t nv = 0, nt = 0;
@@ -250,23 +285,26 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (uint32_t t : tris)
     if (t >= nv) finding("triangle index out of range", int(t));
 
-  // Rasterize into a mask sized from the accepted dims (skipped when large).
+  // Rasterize into a mask sized from the accepted dims (at most 4096 voxels:
+  // a larger grid needs more bytes than max_len or overlapping strides).
   const int64_t voxels_n = v.dims[0] * v.dims[1] * v.dims[2];
   if (voxels_n <= (int64_t(1) << 20)) {
     std::unique_ptr<uint8_t[]> mask(new uint8_t[size_t(voxels_n)]);
     expect_one_of(ffseg_rasterize(e, 0, mask.get(), nullptr), {FFSEG_OK}, "rasterize");
     for (int64_t q = 0; q < voxels_n; ++q)
       if (mask[size_t(q)] > 1) finding("mask value other than 0/1", mask[size_t(q)]);
-    // Reversed k axis: the same voxels through negative strides.
-    const int64_t strides[3] = {1, v.dims[0], -v.dims[0] * v.dims[1]};
-    std::unique_ptr<uint8_t[]> flipped(new uint8_t[size_t(voxels_n)]);
-    expect_one_of(ffseg_rasterize(e, 0, flipped.get() + (v.dims[2] - 1) * v.dims[0] * v.dims[1], strides),
-                  {FFSEG_OK}, "rasterize flipped");
-    for (int64_t k = 0; k < v.dims[2]; ++k)
-      for (int64_t q = 0; q < v.dims[0] * v.dims[1]; ++q)
-        if (mask[size_t(k * v.dims[0] * v.dims[1] + q)] !=
-            flipped[size_t((v.dims[2] - 1 - k) * v.dims[0] * v.dims[1] + q)])
-          finding("rasterize with negative strides differs", 0);
+    if (steps_byte & 128) {
+      // Reversed k axis: the same voxels through negative strides.
+      const int64_t strides[3] = {1, v.dims[0], -v.dims[0] * v.dims[1]};
+      std::unique_ptr<uint8_t[]> flipped(new uint8_t[size_t(voxels_n)]);
+      expect_one_of(ffseg_rasterize(e, 0, flipped.get() + (v.dims[2] - 1) * v.dims[0] * v.dims[1], strides),
+                    {FFSEG_OK}, "rasterize flipped");
+      for (int64_t k = 0; k < v.dims[2]; ++k)
+        for (int64_t q = 0; q < v.dims[0] * v.dims[1]; ++q)
+          if (mask[size_t(k * v.dims[0] * v.dims[1] + q)] !=
+              flipped[size_t((v.dims[2] - 1 - k) * v.dims[0] * v.dims[1] + q)])
+            finding("rasterize with negative strides differs", 0);
+    }
   }
   expect_one_of(ffseg_rasterize(e, 1, nullptr, nullptr), {FFSEG_ERR_NULL_POINTER}, "rasterize NULL mask");
   expect_one_of(ffseg_extract_mesh(e, 1, nullptr, 0, nullptr, 0, &nv, &nt), {FFSEG_ERR_MISUSE}, "extract unplaced");

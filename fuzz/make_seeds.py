@@ -68,7 +68,8 @@ def volume_seeds():
     # spacing byte s -> 0.25 + 0.25 * s mm; sphere radius byte r -> 0.25 * (1 + r) mm.
     s['u8_ball_8cube'] = volume_seed(1, 0, 6, 3, dims=(8, 8, 8), spacing=(3, 3, 3),
                                      sphere=(128, 128, 128, 5), data=ball((8, 8, 8), 1))
-    s['u8_ball_12cube_n8'] = volume_seed(1, 0, 8, 4, dims=(12, 12, 12), spacing=(3, 3, 3),
+    # mesh byte m -> n = 2 + m % 3; steps are capped at 9 / n^2 (fuzz_volume.cpp).
+    s['u8_ball_12cube_n4'] = volume_seed(1, 0, 2, 0x81, dims=(12, 12, 12), spacing=(3, 3, 3),
                                          sphere=(120, 130, 125, 9), data=ball((12, 12, 12), 1))
     s['f32_ball_flipped_padded'] = volume_seed(
         5, 0, 5, 2, dims=(6, 7, 5), layout=0x08 | 0x05, spacing=(3, 5, 7), angle=20, trans=(-3, 4, 1),
@@ -86,8 +87,16 @@ def volume_seeds():
         sphere=(128, 128, 128, 6), data=ball((5, 5, 5), 6))
     s['raw_sphere_huge'] = volume_seed(1, 32, 4, 2, dims=(6, 6, 6), spacing=(3, 3, 3),
                                        raw_sphere=(2.0, 2.0, 2.0, 1e6), data=ball((6, 6, 6), 1))
-    s['params_set'] = volume_seed(1, 64, 5, 3, dims=(8, 8, 8), spacing=(3, 3, 3), sphere=(128, 128, 128, 5),
-                                  params=(200, 40, 0, 60, 3, 4), data=ball((8, 8, 8), 1))
+    s['params_set'] = volume_seed(1, 64, 0, 3, dims=(8, 8, 8), spacing=(3, 3, 3), sphere=(128, 128, 128, 5),
+                                  params=(200, 40, 0, 60, 3, 4, 0), data=ball((8, 8, 8), 1))
+    # Params block, last byte: bit0 grey-level targets, bits 1-2 partial-volume
+    # steps, bits 3-4 smoothing iterations, bits 5-7 intensity_gamma.
+    s['grey_level_f32'] = volume_seed(5, 64, 0, 2, dims=(10, 10, 10), spacing=(3, 3, 3),
+                                      sphere=(128, 128, 128, 7), params=(128, 0, 0, 51, 0, 4, 1 | 4 | 16 | 64),
+                                      data=ball((10, 10, 10), 5, inside=180.0, outside=40.0))
+    s['grey_level_i16_auto_range'] = volume_seed(2, 64, 1, 1, dims=(8, 8, 8), spacing=(3, 3, 3),
+                                                 sphere=(128, 128, 128, 6), params=(128, 0, 10, 51, 2, 4, 1 | 2 | 8),
+                                                 data=ball((8, 8, 8), 2, inside=900, outside=100))
     s['reset_bad_after'] = volume_seed(1, 128, 4, 1, dims=(6, 6, 6), spacing=(3, 3, 3), sphere=(128, 128, 128, 5),
                                        data=ball((6, 6, 6), 1))
     s['lie_dims_overflow'] = volume_seed(1, 1 | 2, 4, 1, raw_dims=(1 << 40, 1 << 40, 1 << 40),

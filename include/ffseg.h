@@ -295,9 +295,12 @@ typedef struct ffseg_step_info {
  * stepping past convergence is harmless. info may be NULL; otherwise info->struct_size must be
  * set. Errors: MISUSE (no volume or no object), NUMERIC (mesh unchanged),
  * ROI_TOO_LARGE, NOT_IMPLEMENTED (a target mode this build lacks),
- * STRUCT_SIZE (info->struct_size smaller than this header's). *info is written
- * only when the call returns FFSEG_OK or FFSEG_CONVERGED; on an error it is
- * left untouched. */
+ * STRUCT_SIZE (info->struct_size smaller than this header's), and with
+ * grey-level targets SPHERE_OUTSIDE (the sphere holds no voxel centre of its
+ * cropped region, e.g. a sphere smaller than a voxel between voxel centres, or
+ * the mesh has left the grid; the mesh is unchanged). *info is written only
+ * when the call returns FFSEG_OK or FFSEG_CONVERGED; on an error it is left
+ * untouched. */
 FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info);
 
 /* Copies object `object`'s mesh out: xyz gets 3 floats (mm) per vertex, tris

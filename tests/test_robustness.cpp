@@ -691,3 +691,34 @@ TEST_CASE("fuzz regression (nifti): a strongly anisotropic sform accepted by the
   const ffseg_volume vf = make_volume(d.data(), FFSEG_U8, d2, flat);
   CHECK(ffseg_set_volume(eb.e, &vf) == FFSEG_ERR_INVALID_VOLUME);
 }
+
+TEST_CASE("fuzz regression (volume): a grey-level sphere holding no voxel centre is SPHERE_OUTSIDE at the step, mesh unchanged") {
+  // fuzz_volume found (once grey-level targets joined it): init_sphere accepts
+  // a 0.25 mm sphere between voxel centres (the ball meets the grid), and the
+  // first grey-level step returns SPHERE_OUTSIDE, which ffseg.h did not list
+  // among ffseg_step's errors (now it does). The mesh must stay the sphere and
+  // the engine usable.
+  const std::vector<uint8_t> data = ball_u8(15.5, 16, 16.5, 8);
+  EngineBox eb(1, 4);
+  REQUIRE(eb.e != nullptr);
+  ffseg_params p;
+  ffseg_params_init_default(&p);
+  p.target_mode = FFSEG_TARGET_INTENSITY;
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  const ffseg_volume v = volume32(data);
+  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
+  const double between[3] = {15.5, 16.5, 16.5};  // 0.71 mm or more from every centre
+  REQUIRE(ffseg_init_sphere(eb.e, 0, between, 0.25) == FFSEG_OK);
+  std::vector<float> sphere, after;
+  std::vector<uint32_t> tris;
+  REQUIRE(ffseg_test::extract(eb.e, 0, &sphere, &tris));
+  CHECK(ffseg_step(eb.e, nullptr) == FFSEG_ERR_SPHERE_OUTSIDE);
+  CHECK(std::string(ffseg_last_error(eb.e)).find("sphere") != std::string::npos);
+  REQUIRE(ffseg_test::extract(eb.e, 0, &after, &tris));
+  CHECK(same_bits(after, sphere));
+  // A sphere that holds voxel centres segments as usual.
+  const double centre[3] = {15.5, 16, 16.5};
+  REQUIRE(ffseg_init_sphere(eb.e, 0, centre, 4) == FFSEG_OK);
+  const ffseg_status st = ffseg_step(eb.e, nullptr);
+  CHECK((st == FFSEG_OK || st == FFSEG_CONVERGED));
+}
