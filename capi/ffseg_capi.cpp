@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "capi_internal.h"
 #include "engine.h"
 #include "ffseg.h"
 
@@ -52,10 +53,103 @@ bool read_versioned(const T* in, size_t min_size, T* out) {
   return true;
 }
 
-Engine* impl(ffseg_engine* e) { return reinterpret_cast<Engine*>(e); }
-const Engine* impl(const ffseg_engine* e) { return reinterpret_cast<const Engine*>(e); }
+using ffseg::capi::Guard;
+using ffseg::capi::kGuardBytes;
+using ffseg::capi::kTailBytes;
 
-bool live(const ffseg_engine* e) { return e != nullptr && impl(e)->magic() == Engine::kMagic; }
+Engine* impl(ffseg_engine* e) { return ffseg::capi::engine_of(e); }
+const Engine* impl(const ffseg_engine* e) { return ffseg::capi::engine_of(const_cast<ffseg_engine*>(e)); }
+Guard* guard_of(const ffseg_engine* e) { return reinterpret_cast<Guard*>(const_cast<ffseg_engine*>(e)); }
+
+// The workspace's integrity (issue 20). A caller that writes into the
+// workspace it handed over (a buffer overrun, a memset of the wrong block, a
+// workspace copied elsewhere) must get MISUSE with a message instead of a call
+// reading garbage pointers. The checks are cheap: the guard in front of the
+// engine (a magic, and a canary hashed from the guard's own address and
+// contents), a tail canary after the engine's last byte, the engine's own
+// magic, and a hash of the layout table: every word of the Engine object that
+// held an address inside the workspace when it was created (the arrays the
+// layout carved; their positions are the guard's map; the table's addresses
+// may be permuted among those words, not changed). Writes into the arrays
+// themselves are not detected; that would cost a pass over the workspace.
+constexpr uint64_t kGuardMagic = 0x66667365672d7773ull;  // "ffseg-ws"
+
+uint64_t mix(uint64_t h, uint64_t v) {  // splitmix64 step over h ^ v
+  uint64_t z = (h ^ v) + 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
+uint64_t word_at(const void* base, size_t w) {
+  uint64_t v;
+  std::memcpy(&v, static_cast<const unsigned char*>(base) + 8 * w, 8);
+  return v;
+}
+
+// A sum, not a chain: the engine swaps ping-pong buffers (two words of the
+// table exchange their addresses), which keeps the set of addresses and so the
+// sum; a word overwritten with anything else changes it.
+uint64_t layout_sum(const Guard& g, const Engine* en) {
+  uint64_t h = 0;
+  for (size_t m = 0; m < Guard::kMapWords; ++m)
+    for (uint64_t bits = g.map[m]; bits != 0; bits &= bits - 1) {
+      const size_t w = 64 * m + size_t(__builtin_ctzll(bits));
+      h += mix(0x6c61796f7574ull, word_at(en, w));
+    }
+  return h;
+}
+
+uint64_t guard_canary(const Guard& g) {
+  uint64_t h = mix(reinterpret_cast<uintptr_t>(&g), g.engine_bytes);
+  h = mix(h, g.layout);
+  for (size_t m = 0; m < Guard::kMapWords; ++m) h = mix(h, g.map[m]);
+  return h;
+}
+
+unsigned char* tail_of(const Guard& g) {
+  return reinterpret_cast<unsigned char*>(const_cast<Guard*>(&g)) + kGuardBytes + g.engine_bytes;
+}
+
+// Records the guard of a freshly created engine.
+void seal(Guard* g, const Engine* en, size_t engine_bytes) {
+  const uintptr_t lo = reinterpret_cast<uintptr_t>(g);
+  const uintptr_t hi = lo + kGuardBytes + engine_bytes;
+  std::memset(g->map, 0, sizeof g->map);
+  for (size_t w = 0; w < sizeof(Engine) / 8; ++w) {
+    const uint64_t v = word_at(en, w);
+    if (v >= lo && v < hi) g->map[w / 64] |= uint64_t(1) << (w % 64);
+  }
+  g->engine_bytes = engine_bytes;
+  g->layout = layout_sum(*g, en);
+  g->canary = guard_canary(*g);
+  std::memcpy(tail_of(*g), &g->canary, sizeof g->canary);
+  g->magic = kGuardMagic;
+}
+
+// nullptr when e is a live, intact engine; otherwise why not (static text).
+const char* damage(const ffseg_engine* e) {
+  const Guard& g = *guard_of(e);
+  if (g.magic != kGuardMagic) return "not a live ffseg engine";
+  if (g.canary != guard_canary(g))
+    return "workspace damaged: the guard in front of the engine was overwritten (the caller wrote into the workspace)";
+  if (std::memcmp(tail_of(g), &g.canary, sizeof g.canary) != 0)
+    return "workspace damaged: the canary after the engine was overwritten (the caller wrote into the workspace)";
+  const Engine* en = impl(e);
+  if (en->magic() != Engine::kMagic)
+    return "workspace damaged: the engine's header was overwritten (the caller wrote into the workspace)";
+  if (layout_sum(g, en) != g.layout)
+    return "workspace damaged: the engine's layout table was overwritten (the caller wrote into the workspace)";
+  return nullptr;
+}
+
+bool live(const ffseg_engine* e) { return e != nullptr && damage(e) == nullptr; }
+
+// The size the public API asks for: guard + engine + tail, 0 on overflow.
+size_t total_bytes(size_t engine_bytes) {
+  if (engine_bytes == 0 || engine_bytes > SIZE_MAX - kGuardBytes - kTailBytes) return 0;
+  return kGuardBytes + engine_bytes + kTailBytes;
+}
 
 // Converts the public config; returns an error status or OK.
 ffseg_status convert_config(const ffseg_config* c, ffseg::Config* out, char* msg, size_t n) {
@@ -124,7 +218,7 @@ FFSEG_API const char* ffseg_status_string(ffseg_status s) {
 
 FFSEG_API const char* ffseg_last_error(const ffseg_engine* e) {
   if (e == nullptr) return t_msg;
-  if (!live(e)) return "not a live ffseg engine";
+  if (const char* why = damage(e)) return why;
   return impl(e)->message();
 }
 
@@ -148,7 +242,7 @@ FFSEG_API ffseg_status ffseg_workspace_size(const ffseg_config* c, size_t* bytes
   ffseg::Config cfg;
   const ffseg_status st = convert_config(c, &cfg, t_msg, sizeof t_msg);
   if (st != FFSEG_OK) return st;
-  const size_t n = Engine::workspace_bytes(cfg);
+  const size_t n = total_bytes(Engine::workspace_bytes(cfg));
   if (n == 0) {
     set_tmsg("workspace_size: the configuration needs more memory than size_t can address");
     return FFSEG_ERR_CONFIG_TOO_LARGE;
@@ -176,7 +270,8 @@ FFSEG_API ffseg_status ffseg_create(const ffseg_config* c, void* workspace, size
     set_tmsg("create: workspace must be 64-byte aligned");
     return FFSEG_ERR_WORKSPACE_MISALIGNED;
   }
-  const size_t need = Engine::workspace_bytes(cfg);
+  const size_t engine_need = Engine::workspace_bytes(cfg);
+  const size_t need = total_bytes(engine_need);
   if (need == 0) {
     set_tmsg("create: the configuration needs more memory than size_t can address");
     return FFSEG_ERR_CONFIG_TOO_LARGE;
@@ -185,17 +280,24 @@ FFSEG_API ffseg_status ffseg_create(const ffseg_config* c, void* workspace, size
     std::snprintf(t_msg, sizeof t_msg, "create: workspace has %zu bytes, needs %zu", bytes, need);
     return FFSEG_ERR_WORKSPACE_TOO_SMALL;
   }
-  Engine* e = Engine::create(cfg, workspace, bytes);
+  // A destroyed engine's guard must not pass for live while the new one is built.
+  Guard* g = static_cast<Guard*>(workspace);
+  g->magic = 0;
+  Engine* e = Engine::create(cfg, static_cast<unsigned char*>(workspace) + kGuardBytes, engine_need);
   if (e == nullptr) {
     std::snprintf(t_msg, sizeof t_msg, "create: workspace has %zu bytes, needs %zu", bytes, need);
     return FFSEG_ERR_WORKSPACE_TOO_SMALL;
   }
-  *out = reinterpret_cast<ffseg_engine*>(e);
+  seal(g, e, engine_need);
+  *out = reinterpret_cast<ffseg_engine*>(g);
   return FFSEG_OK;
 }
 
 FFSEG_API void ffseg_destroy(ffseg_engine* e) {
-  if (live(e)) impl(e)->retire();
+  // A damaged engine is retired too: its guard says so, whatever the rest holds.
+  if (e == nullptr || guard_of(e)->magic != kGuardMagic) return;
+  guard_of(e)->magic = 0;
+  if (impl(e)->magic() == Engine::kMagic) impl(e)->retire();
 }
 
 FFSEG_API void ffseg_params_init_default(ffseg_params* p) {

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "../capi/capi_internal.h"  // engine_of(): the naive-variant test hook
 #include "engine.h"
 #include "testing.h"
 #include "ffseg.h"
@@ -62,7 +63,7 @@ RunResult run_deform(const Phantom& ph, const RunOptions& o) {
   ffseg_volume v = make_volume(ph.mask.data(), FFSEG_U8, ph.dims, ph.affine);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
   REQUIRE(ffseg_init_sphere(eb.e, 0, o.center, o.radius) == FFSEG_OK);
-  if (o.naive) ffseg::EngineTesting::set_naive(*reinterpret_cast<ffseg::Engine*>(eb.e), true);
+  if (o.naive) ffseg::EngineTesting::set_naive(*ffseg::capi::engine_of(eb.e), true);
   std::vector<float> xyz;
   std::vector<uint32_t> tris;
   ffseg_step_info info;
