@@ -104,11 +104,12 @@ clean:
 #                          finding (crash, sanitizer report, leak, timeout) fails;
 #                          prints each target's executions per second
 #   make fuzz-soak         the same on persistent corpora, totals appended to FUZZING.md
+#   make coverage          llvm-cov line coverage (unit tests + corpus replay) per folder
 #   make check-sanitizers  ctest under ASan+UBSan (build-asan/), and the thread
 #                          tests under TSan (build-tsan/)
 FUZZ_BUILD ?= build-fuzz
 FUZZ_SECONDS ?= 60
-FUZZ_TARGETS ?= volume nifti calls
+FUZZ_TARGETS ?= volume nifti calls nrrd metaimage
 # gcc for the sanitizer builds: clang's ASan leaves its runtime out of shared
 # libraries, which libffseg.so (linked with --no-undefined) cannot accept.
 SAN_CC ?= gcc
@@ -125,6 +126,11 @@ fuzz-smoke: fuzz
 # after the other; appends the totals to FUZZING.md's soak log.
 fuzz-soak: fuzz
 	FUZZ_BUILD=$(FUZZ_BUILD) fuzz/run.sh soak $(FUZZ_SECONDS) "$(FUZZ_TARGETS)"
+
+# clang source-based coverage over the unit tests and a replay of the fuzz
+# corpora: line coverage per folder of src/, capi/ and tools/, and a total.
+coverage: deps
+	JOBS=$(JOBS) scripts/coverage.sh
 
 # The portable code paths alone (what a non-x86 CPU builds): every test must
 # pass with the same results as the x86 kernels.

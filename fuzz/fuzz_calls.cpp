@@ -44,6 +44,8 @@ using ffseg_fuzz::Reader;
 constexpr uint64_t kWorkBudget = 4;
 // objects * n^2 of the largest engine created (the config block's 4 x 4^2).
 constexpr uint64_t kCreateBudget = 64;
+// Destroy-and-re-create operations per input.
+constexpr int kMaxRecreate = 2;
 
 [[noreturn]] void finding(const char* what, long long st) {
   std::fprintf(stderr, "fuzz_calls: %s (%lld)\n", what, st);
@@ -205,6 +207,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const size_t NV = size_t(6) * n * n;
   const size_t NT = size_t(12) * n * n - 4;
   uint64_t work = 0;
+  int recreated = 0;
 
   bool have_volume = false;
   int volume_kind = 0;
@@ -356,6 +359,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       }
       case 7: {  // destroy, use the stale handle, re-create in the same workspace
+        // Creation costs about as much as a step (mesh, Laplacian program):
+        // twice per input at most.
+        if (recreated == kMaxRecreate) break;
+        ++recreated;
         ffseg_destroy(e);
         const double c[3] = {0, 0, 0};
         if (ffseg_init_sphere(e, 0, c, 1.0) != FFSEG_ERR_MISUSE) finding("init_sphere after destroy", 0);

@@ -1,95 +1,16 @@
 // libFuzzer target "nifti": the tools' NIfTI-1 reader on arbitrary bytes
-// (.nii and .nii.gz alike: the reader detects gzip from the magic bytes).
-//
-// The reader runs with NiftiLimits::max_bytes = 64 MiB, so a decompression
-// bomb or a lying header must be refused by that bound (libFuzzer's
-// -rss_limit_mb / -malloc_limit_mb catch any attempt to allocate beyond it).
-// An accepted image must be self-consistent (buffer size, finite affine and
-// rescale, known voxel type) and must be accepted by the engine as a volume,
-// whose 8 corner voxels are then read through ffseg_sample.
-#include <cmath>
+// (.nii and .nii.gz alike: the reader detects gzip from the magic bytes), with
+// the checks of fuzz_image.h on what it returns.
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <string>
 
-#include "ffseg.h"
+#include "fuzz_image.h"
 #include "nifti.h"
 
-namespace {
-
-[[noreturn]] void finding(const char* what, const std::string& detail) {
-  std::fprintf(stderr, "fuzz_nifti: %s: %s\n", what, detail.c_str());
-  std::abort();
-}
-
-// One small engine reused across inputs (set_volume does not depend on n).
-ffseg_engine* engine() {
-  static ffseg_engine* e = [] {
-    ffseg_config c;
-    ffseg_config_init_default(&c);
-    c.mesh_resolution = 2;
-    size_t bytes = 0;
-    void* ws = nullptr;
-    ffseg_engine* out = nullptr;
-    if (ffseg_workspace_size(&c, &bytes) != FFSEG_OK || posix_memalign(&ws, 64, bytes) != 0 ||
-        ffseg_create(&c, ws, bytes, &out) != FFSEG_OK)
-      std::abort();
-    return out;
-  }();
-  return e;
-}
-
-}  // namespace
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  ffseg_tools::NiftiLimits lim;
-  lim.max_bytes = uint64_t(64) << 20;
+  const ffseg_tools::NiftiLimits lim = ffseg_fuzz::reader_limits();
   ffseg_tools::NiftiImage img;
   std::string err;
   const bool ok = ffseg_tools::nifti_read_memory(data, size, &img, &err, lim);
-  if (!ok) {
-    if (err.empty()) finding("refused without a message", "");
-    return 0;
-  }
-  // Self-consistency of an accepted image.
-  const int es = ffseg_tools::nifti_voxel_type_size(img.voxel_type);
-  if (es == 0 || es != img.bytes_per_voxel) finding("bad voxel type", std::to_string(img.voxel_type));
-  for (int a = 0; a < 3; ++a)
-    if (img.dims[a] < 1) finding("non-positive dim", std::to_string(img.dims[a]));
-  if (img.data.size() != img.voxel_count() * uint64_t(es))
-    finding("data size does not match dims", std::to_string(img.data.size()));
-  if (img.data.size() > lim.max_bytes) finding("image beyond max_bytes", std::to_string(img.data.size()));
-  for (int q = 0; q < 16; ++q)
-    if (!std::isfinite(img.index_to_world[q])) finding("non-finite affine", img.which_affine);
-  if (!std::isfinite(img.scl_slope) || !std::isfinite(img.scl_inter) || img.scl_slope == 0)
-    finding("bad rescale", std::to_string(img.scl_slope));
-
-  // The engine accepts what the reader accepts.
-  ffseg_volume v;
-  std::memset(&v, 0, sizeof v);
-  v.struct_size = sizeof v;
-  v.voxel_type = uint32_t(img.voxel_type);
-  v.data = img.data.data();
-  v.data_bytes = img.data.size();
-  for (int a = 0; a < 3; ++a) v.dims[a] = img.dims[a];
-  v.strides[0] = es;
-  v.strides[1] = int64_t(es) * img.dims[0];
-  v.strides[2] = int64_t(es) * img.dims[0] * img.dims[1];
-  std::memcpy(v.index_to_world, img.index_to_world, sizeof v.index_to_world);
-  v.rescale_slope = img.scl_slope;
-  v.rescale_intercept = img.scl_inter;
-  ffseg_engine* e = engine();
-  if (ffseg_set_volume(e, &v) != FFSEG_OK) finding("engine refused an accepted image", ffseg_last_error(e));
-  const double* A = img.index_to_world;
-  for (int c = 0; c < 8; ++c) {
-    double ijk[3], w[3], val = 0;
-    for (int a = 0; a < 3; ++a) ijk[a] = (c >> a) & 1 ? double(img.dims[a] - 1) : 0.0;
-    for (int r = 0; r < 3; ++r) w[r] = A[4 * r] * ijk[0] + A[4 * r + 1] * ijk[1] + A[4 * r + 2] * ijk[2] + A[4 * r + 3];
-    if (ffseg_sample(e, w, FFSEG_SAMPLE_NEAREST, &val) != FFSEG_OK) finding("sample failed", ffseg_last_error(e));
-  }
-  // The engine still borrows img.data after this returns; it is never read
-  // again: the next accepted image replaces the volume before any sampling.
-  return 0;
+  return ffseg_fuzz::check_read("fuzz_nifti", ok, img, err, lim);
 }

@@ -1,14 +1,17 @@
 #!/usr/bin/env python3
 """Writes the seed corpora of the volume and calls fuzzers (fuzz/corpus/volume,
 fuzz/corpus/calls) in the input layouts documented at the top of
-fuzz_volume.cpp and fuzz_calls.cpp. Deterministic; run from anywhere:
+fuzz_volume.cpp and fuzz_calls.cpp, and small valid and refused NRRD and
+MetaImage files (fuzz/corpus/nrrd, fuzz/corpus/metaimage). Deterministic; run from anywhere:
 
     python3 fuzz/make_seeds.py
 
 (fuzz/corpus/nifti holds real and hand-broken NIfTI files instead.)"""
+import gzip
 import math
 import os
 import struct
+import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -180,6 +183,51 @@ def calls_seeds():
     return s
 
 
+# ---- NRRD and MetaImage (fuzz_nrrd, fuzz_metaimage): text headers + data ----------
+
+def ramp(n, fmt):
+    return b''.join(struct.pack(fmt, (i * 7) % 100) for i in range(n))
+
+
+def nrrd_seeds():
+    s = {}
+    s['u8_raw_spacings'] = (b'NRRD0004\ntype: uchar\ndimension: 3\nsizes: 3 4 2\nspacings: 1.5 1 2\n'
+                            b'encoding: raw\n\n' + ramp(24, '<B'))
+    s['i16_lps_directions'] = (b'NRRD0005\n# comment\ntype: short\ndimension: 3\nspace: left-posterior-superior\n'
+                               b'sizes: 2 3 2\nspace directions: (0.9,0,0) (0,1.1,0.1) (0,0,2.5)\n'
+                               b'space origin: (-10,4,1)\nkinds: domain domain domain\nendian: little\n'
+                               b'encoding: raw\n\n' + ramp(12, '<h'))
+    s['f32_big_endian_ras'] = (b'NRRD0004\ntype: float\ndimension: 3\nspace: RAS\nsizes: 2 2 2\n'
+                               b'space directions: (1,0,0) (0,1,0) (0,0,1)\nspace units: "mm" "mm" "mm"\n'
+                               b'endian: big\nencoding: raw\n\n' + ramp(8, '>f'))
+    s['f64_gzip'] = (b'NRRD0004\ntype: double\ndimension: 3\nsizes: 2 2 3\nendian: little\nencoding: gzip\n'
+                     b'key:=value\n\n' + gzip.compress(ramp(12, '<d'), mtime=0))
+    s['u16_byteskip'] = (b'NRRD0004\ntype: ushort\ndimension: 3\nsizes: 2 2 2\nendian: little\n'
+                         b'byte skip: -1\nencoding: raw\n\n' + b'junk' + ramp(8, '<H'))
+    s['refused_detached'] = b'NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\ndata file: x.raw\nencoding: raw\n\n'
+    return s
+
+
+def metaimage_seeds():
+    s = {}
+    s['uchar_local'] = (b'ObjectType = Image\nNDims = 3\nDimSize = 3 4 2\nElementSpacing = 1.5 1 2\n'
+                        b'ElementType = MET_UCHAR\nElementDataFile = LOCAL\n' + ramp(24, '<B'))
+    s['short_transform'] = (b'ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n'
+                            b'TransformMatrix = 0 1 0 -1 0 0 0 0 1\nOffset = -10 4 1\nElementSpacing = 0.9 1.1 2.5\n'
+                            b'DimSize = 2 3 2\nElementType = MET_SHORT\nElementDataFile = LOCAL\n' + ramp(12, '<h'))
+    s['float_msb'] = (b'ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementByteOrderMSB = True\n'
+                      b'ElementType = MET_FLOAT\nElementDataFile = LOCAL\n' + ramp(8, '>f'))
+    comp = zlib.compress(ramp(12, '<d'))
+    s['double_compressed'] = (b'ObjectType = Image\nNDims = 3\nDimSize = 2 2 3\nCompressedData = True\n'
+                              b'CompressedDataSize = ' + str(len(comp)).encode() + b'\nElementType = MET_DOUBLE\n'
+                              b'ElementDataFile = LOCAL\n' + comp)
+    s['ulong_long'] = (b'ObjectType = Image\nNDims = 3\nDimSize = 2 1 2\nElementType = MET_ULONG_LONG\n'
+                       b'Comment = seed\nElementDataFile = LOCAL\n' + ramp(4, '<Q'))
+    s['refused_ascii'] = (b'ObjectType = Image\nNDims = 3\nDimSize = 1 1 1\nBinaryData = False\n'
+                          b'ElementType = MET_UCHAR\nElementDataFile = LOCAL\n1\n')
+    return s
+
+
 def write(dirname, seeds):
     d = os.path.join(HERE, 'corpus', dirname)
     os.makedirs(d, exist_ok=True)
@@ -192,3 +240,5 @@ def write(dirname, seeds):
 if __name__ == '__main__':
     write('volume', volume_seeds())
     write('calls', calls_seeds())
+    write('nrrd', nrrd_seeds())
+    write('metaimage', metaimage_seeds())

@@ -19,7 +19,7 @@ log_md=FUZZING.md
 mkdir -p "$build/findings"
 
 max_len() {
-  case $1 in volume) echo 4096 ;; nifti) echo 8192 ;; calls) echo 512 ;; *) echo 4096 ;; esac
+  case $1 in volume) echo 4096 ;; calls) echo 512 ;; *) echo 8192 ;; esac
 }
 
 # Executions since the target's last finding, from the soak log rows
