@@ -474,8 +474,10 @@ static ffseg_status finish(const char* call, const ffseg_engine* e, ffseg_status
   if (s >= 0) return s;
   if (e == nullptr) {
     std::snprintf(t_msg, sizeof t_msg, "%s: engine is NULL", call);
-  } else if (!live(e)) {
+  } else if (guard_of(e)->magic != kGuardMagic) {
     std::snprintf(t_msg, sizeof t_msg, "%s: not a live engine (destroyed, or not made by ffseg_create)", call);
+  } else if (const char* why = damage(e)) {
+    std::snprintf(t_msg, sizeof t_msg, "%s: %s", call, why);
   } else {
     Engine* en = const_cast<Engine*>(impl(e));
     if (en->message()[0] == '\0')

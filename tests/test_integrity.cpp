@@ -84,6 +84,10 @@ void expect_refused_everywhere(ffseg_engine* e, const Setup& s, const char* reas
   CHECK(ffseg_rasterize(e, 0, mask.data(), nullptr) == FFSEG_ERR_MISUSE);
   const std::string msg = ffseg_last_error(e);
   CHECK_MESSAGE(msg.find(reason) != std::string::npos, msg);
+  // The thread's slot names the last call and why (for a damaged, not a
+  // destroyed engine, the damage).
+  const std::string tmsg = ffseg_last_error(nullptr);
+  CHECK_MESSAGE(tmsg.rfind("rasterize: ", 0) == 0, tmsg);
 }
 
 }  // namespace
