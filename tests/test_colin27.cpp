@@ -15,152 +15,11 @@
 #include "ffseg.h"
 #include "metrics.h"
 #include "nifti.h"
+#include "support/colin27_run.h"
 #include "support/mesh_check.h"
 #include "test_util.h"
 
-using ffseg_test::EngineBox;
-
-namespace {
-
-const char* kCh2 = "/usr/share/mricron/templates/ch2.nii.gz";
-const char* kAal = "/usr/share/mricron/templates/aal.nii.gz";
-
-struct StructureResult {
-  int label = 0;
-  const char* name = "";
-  ffseg_tools::SegMetrics m{};
-  int steps = 0;
-  double ms = 0;
-  size_t intersections = 0;  // worst over the steps (with check_mesh)
-  size_t flips = 0;          // worst over the steps: triangles turned against their neighbours
-};
-
-ffseg_volume volume_of(const ffseg_tools::NiftiImage& img) {
-  const int64_t dims[3] = {img.dims[0], img.dims[1], img.dims[2]};
-  ffseg_volume v = ffseg_test::make_volume(img.data.data(), uint32_t(img.voxel_type), dims, img.index_to_world);
-  v.rescale_slope = img.scl_slope;
-  v.rescale_intercept = img.scl_inter;
-  return v;
-}
-
-}  // namespace
-
-// Runs one AAL structure; returns metrics against the label.
-struct RunOptions {
-  double radius_scale = 1;
-  const double* shift_mm = nullptr;   // sphere centre moved by this (mm)
-  bool check_mesh = false;            // self-intersections and flips after every step
-  int partial_volume_steps = -1;      // >= 0: instead of the default
-};
-
-StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg_tools::NiftiImage& aal, int label,
-                                  const char* name, uint32_t n, int max_steps, const RunOptions& o = RunOptions()) {
-  StructureResult res;
-  res.label = label;
-  res.name = name;
-  const size_t N = aal.data.size();
-  std::vector<uint8_t> truth(N);
-  for (size_t i = 0; i < N; ++i) truth[i] = aal.data[i] == label;
-  std::array<int, 3> ijk{};
-  double depth = 0;
-  REQUIRE(ffseg_tools::find_deepest_voxel(truth.data(), aal.dims, aal.spacing, &ijk, &depth));
-  double c[3];
-  for (int r = 0; r < 3; ++r)
-    c[r] = t1.index_to_world[4 * r] * ijk[0] + t1.index_to_world[4 * r + 1] * ijk[1] + t1.index_to_world[4 * r + 2] * ijk[2] +
-           t1.index_to_world[4 * r + 3];
-  if (o.shift_mm)
-    for (int r = 0; r < 3; ++r) c[r] += o.shift_mm[r];
-  depth *= o.radius_scale;
-  if (std::getenv("FFSEG_VERBOSE")) std::printf("label %d: centre %.1f,%.1f,%.1f radius %.2f\n", label, c[0], c[1], c[2], depth / 2);
-  EngineBox eb(1, n, int64_t(1) << 23);
-  REQUIRE(eb.e != nullptr);
-  ffseg_params p;
-  ffseg_params_init_default(&p);
-  p.target_mode = FFSEG_TARGET_INTENSITY;
-  if (const char* e = std::getenv("FFSEG_SIGF")) p.sigma_floor_fraction = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_GAMMA")) p.intensity_gamma = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_SR")) p.search_range_mm = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_ALPHA")) p.step_size = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_SMI")) p.smoothing_iterations = uint32_t(std::atoi(e));
-  if (const char* e = std::getenv("FFSEG_NB")) p.consecutive_background = uint32_t(std::atoi(e));
-  if (const char* e = std::getenv("FFSEG_DIFF")) p.diffusion_iterations = uint32_t(std::atoi(e));
-  if (const char* e = std::getenv("FFSEG_LL")) p.lambda_laplacian = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_LU")) p.lambda_uniform = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_LP")) p.lambda_position = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_TAU")) p.flip_tau = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_CONV")) p.convergence_mm = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_PVS")) p.partial_volume_steps = uint32_t(std::atoi(e));
-  if (o.partial_volume_steps >= 0) p.partial_volume_steps = uint32_t(o.partial_volume_steps);
-  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
-  ffseg_volume v = volume_of(t1);
-  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
-  REQUIRE(ffseg_init_sphere(eb.e, 0, c, depth / 2) == FFSEG_OK);
-  ffseg_step_info info;
-  info.struct_size = sizeof info;
-  ffseg_test::MeshWatch watch;
-  for (int s = 0; s < max_steps; ++s) {
-    const auto t0 = std::chrono::steady_clock::now();  // ms: the step calls only
-    const ffseg_status st = ffseg_step(eb.e, &info);
-    res.ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    INFO(ffseg_last_error(eb.e));
-    if (o.check_mesh && st >= 0) REQUIRE(watch.look(eb.e, 0));
-    REQUIRE(st >= 0);
-    res.steps = s + 1;
-    if (std::getenv("FFSEG_STEPS"))
-      std::printf("  step %d: disp %.3f targets %u flips %u guard %u  guard_us %llu feat_us %llu\n", s + 1, info.mean_displacement_mm[0],
-                  info.vertices_with_target[0], info.flips_avoided[0], info.intersections_avoided[0], (unsigned long long)info.stage_us[8], (unsigned long long)info.stage_us[7]);
-    if (st == FFSEG_CONVERGED) break;
-  }
-  res.intersections = watch.intersections;
-  res.flips = watch.flips;
-  std::vector<uint8_t> mask(N);
-  REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
-  res.m = ffseg_tools::compare_masks(mask.data(), truth.data(), aal.dims, aal.spacing);
-  return res;
-}
-
-TEST_CASE("colin27 experiment" * doctest::skip()) {
-  ffseg_tools::NiftiImage t1, aal;
-  std::string err;
-  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
-  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kAal, &aal, &err), err);
-  const std::pair<int, const char*> structures[] = {{73, "putamen L"}, {74, "putamen R"}, {77, "thalamus L"},
-                                                    {78, "thalamus R"}, {71, "caudate L"}, {72, "caudate R"},
-                                                    {37, "hippocampus L"}, {38, "hippocampus R"}};
-  std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms | ml predicted / true |\n"
-              "|---|---|---|---|---|---|---|---|---|\n");
-  const char* only = std::getenv("FFSEG_ONLY");
-  for (auto& st : structures) {
-    if (only && std::string(only).find(std::to_string(st.first)) == std::string::npos) continue;
-    const uint32_t n = std::getenv("FFSEG_N") ? uint32_t(std::atoi(std::getenv("FFSEG_N"))) : 33;
-    StructureResult r = segment_structure(t1, aal, st.first, st.second, n, 100);
-    if (std::getenv("FFSEG_JITTER")) {
-      // Mean over six perturbed spheres (radius x 0.8, 1, 1.2; centre as is or
-      // shifted by 1 mm along each axis): a steadier figure than one run.
-      const double scales[] = {0.8, 1.0, 1.2};
-      const double shift[3] = {1, 1, 1};
-      StructureResult acc = r;
-      acc.m.dice = acc.m.assd_mm = acc.m.vol_a_ml = 0;
-      acc.ms = 0;
-      acc.steps = 0;
-      for (int k = 0; k < 6; ++k) {
-        RunOptions ro;
-        ro.radius_scale = scales[k % 3];
-        ro.shift_mm = k < 3 ? nullptr : shift;
-        const StructureResult q = segment_structure(t1, aal, st.first, st.second, n, 100, ro);
-        acc.m.dice += q.m.dice / 6;
-        acc.m.assd_mm += q.m.assd_mm / 6;
-        acc.m.vol_a_ml += q.m.vol_a_ml / 6;
-        acc.ms += q.ms / 6;
-        acc.steps += q.steps;
-      }
-      acc.steps /= 6;
-      r = acc;
-    }
-    std::printf("| %s | %d | %.3f | %.3f | %.2f | %.2f | %d | %.0f | %.2f / %.2f |\n", r.name, r.label, r.m.dice, r.m.voe,
-                r.m.assd_mm, r.m.hd95_mm, r.steps, r.ms, r.m.vol_a_ml, r.m.vol_b_ml);
-  }
-}
+using namespace ffseg_test;
 
 TEST_CASE("chapter 4 on a real shape: the Colin27 brain mask (ch2bet), n = 49, Dice >= 0.93, never self-intersecting") {
   ffseg_tools::NiftiImage bet;
@@ -200,21 +59,11 @@ TEST_CASE("chapter 4 on a real shape: the Colin27 brain mask (ch2bet), n = 49, D
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
   REQUIRE(ffseg_init_sphere(eb.e, 0, c, radius) == FFSEG_OK);
   ffseg_test::MeshWatch watch;
-  const std::vector<float>& xyz = watch.xyz;
-  const std::vector<uint32_t>& tris = watch.tris;
   int steps = 0;
   for (; steps < 150; ++steps) {
     const ffseg_status st = ffseg_step(eb.e, nullptr);
     REQUIRE(st >= 0);
     REQUIRE(watch.look(eb.e, 0));
-    if (watch.last_flips && std::getenv("FFSEG_DUMP")) {
-      FILE* f = std::fopen(std::getenv("FFSEG_DUMP"), "w");
-      std::fprintf(f, "%zu %zu\n", xyz.size() / 3, tris.size() / 3);
-      for (size_t i = 0; i < xyz.size() / 3; ++i) std::fprintf(f, "%g %g %g\n", xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
-      for (size_t i = 0; i < tris.size() / 3; ++i) std::fprintf(f, "%u %u %u\n", tris[3 * i], tris[3 * i + 1], tris[3 * i + 2]);
-      std::fclose(f);
-      std::printf("flip at step %d\n", steps + 1);
-    }
     if (st == FFSEG_CONVERGED) { ++steps; break; }
   }
   std::vector<uint8_t> mask(N);
@@ -251,8 +100,8 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
   // thalamus L 0.60, caudate L 0.67, hippocampus L 0.50.
   ffseg_tools::NiftiImage t1, aal;
   std::string err;
-  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
-  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kAal, &aal, &err), err);
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kColin27T1, &t1, &err), err);
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kColin27Aal, &aal, &err), err);
   struct Case {
     int label;
     const char* name;
@@ -269,7 +118,7 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
   std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
     CAPTURE(c.name);
-    RunOptions ro;
+    StructureRunOptions ro;
     ro.check_mesh = true;
     const StructureResult r = segment_structure(t1, aal, c.label, c.name, 12, 100, ro);
     std::printf("| %s | %d | %.3f | %.3f | %.2f | %.2f | %d | %.0f |\n", r.name, r.label, r.m.dice, r.m.voe, r.m.assd_mm,
@@ -288,9 +137,9 @@ TEST_CASE("chapter 5 on Colin27: partial-volume steps come after the first rest,
   // convergence_mm, so exactly k), and the boundaries move outwards.
   ffseg_tools::NiftiImage t1, aal;
   std::string err;
-  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kCh2, &t1, &err), err);
-  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kAal, &aal, &err), err);
-  RunOptions ro;
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kColin27T1, &t1, &err), err);
+  REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kColin27Aal, &aal, &err), err);
+  StructureRunOptions ro;
   ro.partial_volume_steps = 0;
   const StructureResult off = segment_structure(t1, aal, 73, "putamen L", 12, 100, ro);
   for (int k : {1, 2, 4}) {

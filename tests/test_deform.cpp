@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "../capi/capi_internal.h"  // engine_of(): the naive-variant test hook
 #include "engine.h"
 #include "testing.h"
 #include "ffseg.h"
+#include "support/deform_run.h"
 #include "support/mesh_check.h"
 #include "support/phantoms.h"
 #include "test_util.h"
@@ -21,137 +21,10 @@ using namespace ffseg_test;
 
 namespace {
 
-struct RunResult {
-  double dice = 0;
-  int steps = 0;
-  bool converged = false;
-  size_t intersections = 0;  // worst over all steps
-  size_t flips = 0;          // worst over all steps
-  bool closed = true;
-  ffseg_status last = FFSEG_OK;
-};
-
-struct RunOptions {
-  uint32_t n = 21;
-  double alpha = 0.5;
-  double center[3] = {0, 0, 0};
-  double radius = 10;
-  int max_steps = 150;
-  bool check_every_step = true;
-  bool naive = false;
-  bool verbose = false;
-  double search_range = 0;  // 0: the default
-  double convergence = 0;   // 0: the default
-};
-
-RunResult run_deform(const Phantom& ph, const RunOptions& o) {
-  RunResult res;
-  EngineBox eb(1, o.n);
-  REQUIRE(eb.e != nullptr);
-  ffseg_params p;
-  ffseg_params_init_default(&p);
-  p.step_size = o.alpha;
-  if (o.search_range > 0) p.search_range_mm = o.search_range;
-  if (o.convergence > 0) p.convergence_mm = o.convergence;
-  if (const char* e = std::getenv("FFSEG_LL")) p.lambda_laplacian = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_LP")) p.lambda_position = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_LU")) p.lambda_uniform = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_DIFF")) p.diffusion_iterations = uint32_t(std::atoi(e));
-  if (const char* e = std::getenv("FFSEG_TAU")) p.flip_tau = std::atof(e);
-  if (const char* e = std::getenv("FFSEG_CONV")) p.convergence_mm = std::atof(e);
-  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
-  ffseg_volume v = make_volume(ph.mask.data(), FFSEG_U8, ph.dims, ph.affine);
-  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
-  REQUIRE(ffseg_init_sphere(eb.e, 0, o.center, o.radius) == FFSEG_OK);
-  if (o.naive) ffseg::EngineTesting::set_naive(*ffseg::capi::engine_of(eb.e), true);
-  std::vector<float> xyz;
-  std::vector<uint32_t> tris;
-  ffseg_step_info info;
-  info.struct_size = sizeof info;
-  for (int s = 0; s < o.max_steps; ++s) {
-    res.last = ffseg_step(eb.e, &info);
-    REQUIRE(res.last >= 0);
-    res.steps = s + 1;
-    if (o.check_every_step || res.last == FFSEG_CONVERGED || s + 1 == o.max_steps) {
-      REQUIRE(extract(eb.e, 0, &xyz, &tris));
-      const SelfIntersectionReport rep = check_self_intersections(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3);
-      const size_t bad = rep.disjoint_pairs + rep.shared_vertex_pairs;
-      const size_t flips = count_normal_flips(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3, -0.5);
-      if (bad > res.intersections) res.intersections = bad;
-      if (o.verbose) std::printf("  [step %d: %zu intersecting pairs, %zu normal flips]\n", s + 1, bad, flips);
-      if (flips > res.flips) res.flips = flips;
-      res.closed = res.closed && is_closed_oriented_manifold(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3);
-    }
-    if (o.verbose)
-      std::printf("  step %3d disp %.4f targets %u flips %u folds %u | search %llu flips %llu diff %llu inter %llu asm %llu fact %llu solve %llu us\n",
-                  s + 1, info.mean_displacement_mm[0], info.vertices_with_target[0], info.flips_avoided[0],
-                  info.intersections_avoided[0], (unsigned long long)info.stage_us[0], (unsigned long long)info.stage_us[1],
-                  (unsigned long long)info.stage_us[2], (unsigned long long)info.stage_us[3],
-                  (unsigned long long)info.stage_us[4], (unsigned long long)info.stage_us[5],
-                  (unsigned long long)info.stage_us[6]);
-    if (std::getenv("FFSEG_STEP_DICE")) {
-      std::vector<uint8_t> m(ph.mask.size());
-      REQUIRE(ffseg_rasterize(eb.e, 0, m.data(), nullptr) == FFSEG_OK);
-      std::printf("  step %d dice %.4f disp %.4f\n", s + 1, dice(m, ph.mask), info.mean_displacement_mm[0]);
-    }
-    if (const char* dump = std::getenv("FFSEG_DUMP_STEP")) {
-      if (std::atoi(dump) == s + 1) {
-        REQUIRE(extract(eb.e, 0, &xyz, &tris));
-        FILE* f = std::fopen("/tmp/viz/mesh.txt", "w");
-        std::fprintf(f, "%zu %zu\n", xyz.size() / 3, tris.size() / 3);
-        for (size_t i = 0; i < xyz.size() / 3; ++i) std::fprintf(f, "%g %g %g\n", xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
-        for (size_t i = 0; i < tris.size() / 3; ++i) std::fprintf(f, "%u %u %u\n", tris[3 * i], tris[3 * i + 1], tris[3 * i + 2]);
-        std::fclose(f);
-        f = std::fopen("/tmp/viz/mask.raw", "wb");
-        std::fwrite(ph.mask.data(), 1, ph.mask.size(), f);
-        std::fclose(f);
-      }
-    }
-    if (res.last == FFSEG_CONVERGED) {
-      res.converged = true;
-      break;
-    }
-  }
-  std::vector<uint8_t> mask(ph.mask.size());
-  REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
-  res.dice = dice(mask, ph.mask);
-  return res;
-}
+using RunResult = DeformRunResult;
+using RunOptions = DeformRunOptions;
 
 }  // namespace
-
-TEST_CASE("deform experiment" * doctest::skip()) {
-  const char* shape = std::getenv("FFSEG_SHAPE");
-  const std::string sh = shape ? shape : "cup";
-  Phantom ph;
-  RunOptions o;
-  if (sh == "cup") {
-    ph = cup_phantom();
-    o.radius = 60;
-  } else if (sh == "big") {  // target larger than the mesh
-    const double c[3] = {32, 33, 31};
-    ph = ball_phantom(64, c, 24);
-    o.radius = 10;
-  } else if (sh == "small") {
-    const double c[3] = {32, 33, 31};
-    ph = ball_phantom(64, c, 12);
-    o.radius = 26;
-  } else {
-    ph = ellipsoid_phantom();
-    o.radius = 8;
-  }
-  for (int a = 0; a < 3; ++a) o.center[a] = ph.center[a];
-  o.n = 33;
-  o.alpha = 0.5;
-  o.verbose = std::getenv("FFSEG_VERBOSE") != nullptr;
-  if (const char* sr = std::getenv("FFSEG_SR")) o.search_range = std::atof(sr);
-  if (const char* nn = std::getenv("FFSEG_N")) o.n = uint32_t(std::atoi(nn));
-  if (const char* al = std::getenv("FFSEG_ALPHA")) o.alpha = std::atof(al);
-  o.max_steps = 150;
-  RunResult r = run_deform(ph, o);
-  std::printf("%s n=%u alpha=%.1f dice %.4f steps %d conv %d inter %zu flips %zu closed %d\n", sh.c_str(), o.n, o.alpha,
-              r.dice, r.steps, r.converged, r.intersections, r.flips, r.closed);
-}
 
 TEST_CASE("naive variant of fig. 4.10 (vertices straight to their targets) self-intersects on the cup") {
   // The guard against the checks failing silently: without flip handling the

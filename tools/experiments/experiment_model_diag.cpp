@@ -1,9 +1,18 @@
-// Diagnostic (skipped): what the chapter 5 intensity model alone accepts on
+// Experiment (not a test): what the chapter 5 intensity model alone accepts on
 // Colin27, independent of the mesh. For each AAL structure, the model is fit
 // as the engine fits it (protocol sphere, crop = ball of radius r + 20 mm);
 // then over a larger crop: the fraction of label voxels it accepts, and the
 // 6-connected accepted region grown from the sphere centre against the label.
-// Run: build/ffseg_tests -tc='colin27 model diagnostic' --no-skip
+// Built with the tests, never run by ctest (was the skipped case in
+// tests/test_model_diag.cpp).
+//
+//   build/experiment_model_diag
+//   FFSEG_GAMMA=0.3 FFSEG_SIGF=0.1 FFSEG_VERBOSE=1 build/experiment_model_diag
+//
+// Environment: FFSEG_GAMMA acceptance level of g (0.2), FFSEG_SIGF
+// sigma_floor_fraction (0.05), FFSEG_VERBOSE the label's intensity quantiles
+// and the fitted components.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -22,7 +31,7 @@
 
 using namespace ffseg;
 
-TEST_CASE("colin27 model diagnostic" * doctest::skip()) {
+TEST_CASE("colin27 model diagnostic") {
   ffseg_tools::NiftiImage t1, aal;
   std::string err;
   REQUIRE(ffseg_tools::nifti_read_file("/usr/share/mricron/templates/ch2.nii.gz", &t1, &err));
