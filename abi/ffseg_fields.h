@@ -1,6 +1,6 @@
 /* ffseg_fields.h - every field of every public struct of ffseg.h, in declaration
  * order, as X-macros. One list for the three places that check the layout: the
- * no-padding unit test (tests/test_abi_layout.cpp), and layout.c, the program
+ * no-padding unit test (tests/capi/test_abi_layout.cpp), and layout.c, the program
  * whose output the Rust and C# bindings compare their own layouts against.
  * Appending a field to a struct in ffseg.h without appending it here fails the
  * unit test (the listed sizes no longer add up to sizeof). */

@@ -4,12 +4,12 @@
 //
 // The malformed-case table here complements two existing tables and does not
 // repeat their entries:
-//  * tests/test_foundation.cpp "malformed volumes are refused ..." (24 volume
+//  * tests/capi/test_api_contract.cpp "malformed volumes are refused ..." (24 volume
 //    descriptor cases: zero/negative dims, product overflow, NULL data, unknown
 //    type, strides past the end, short data, offset/negative stride before the
 //    start, aliasing strides, singular/NaN/Inf affine, projective last row,
 //    zero/NaN slope, Inf intercept, huge strides);
-//  * tests/test_nifti.cpp "nifti: malformed inputs are refused ..." (56 NIfTI
+//  * tests/tools/test_nifti.cpp "nifti: malformed inputs are refused ..." (56 NIfTI
 //    cases: sizeof_hdr, magic, dim[0], dims, datatype, bitpix, vox_offset,
 //    truncated data, pixdim, qform/sform, scl_slope/scl_inter, gzip).
 // Together with the cases below that is well over 40 named cases per the issue.
@@ -195,7 +195,7 @@ struct Case {
 
 std::vector<Case> malformed_cases() {
   std::vector<Case> t = {
-      // ---- the volume descriptor (beyond test_foundation's 24) ----
+      // ---- the volume descriptor (beyond test_api_contract's 24) ----
       {"volume: dims[0] = INT64_MIN", [] { return volume_case([](ffseg_volume& v) { v.dims[0] = INT64_MIN; }); },
        FFSEG_ERR_INVALID_VOLUME, "dims[0]"},
       {"volume: dims 2^32 x 2^31 x 2 overflow", [] {
@@ -337,7 +337,7 @@ std::vector<Case> malformed_cases() {
          return call_case(Stage::volume, [](ffseg_engine* e) { const double c[3] = {1e6, 16, 16}; return ffseg_init_sphere(e, 0, c, 5); });
        }, FFSEG_ERR_SPHERE_OUTSIDE, "does not meet the volume"},
 
-      // ---- parameters: every field out of range names it (step_size and flip_tau are in test_foundation) ----
+      // ---- parameters: every field out of range names it (step_size and flip_tau are in test_api_contract) ----
       {"params: target_mode 2", [] { return params_case([](ffseg_params& p) { p.target_mode = 2; }); }, FFSEG_ERR_INVALID_ARGUMENT, "target_mode"},
       {"params: lambda_laplacian 0", [] { return params_case([](ffseg_params& p) { p.lambda_laplacian = 0; }); }, FFSEG_ERR_INVALID_ARGUMENT, "lambda_laplacian"},
       {"params: lambda_position NaN", [] { return params_case([](ffseg_params& p) { p.lambda_position = NAN; }); }, FFSEG_ERR_INVALID_ARGUMENT, "lambda_position"},

@@ -1,0 +1,125 @@
+// The step guard (src/deform/step_guard.h) on the bare cube-sphere: a step
+// that would cross backs off where it crosses; its fold-test cache.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "cubesphere.h"
+#include "diffusion.h"
+#include "mesh_intersection.h"
+#include "step_guard.h"
+#include "test_util.h"
+#include "testing.h"
+
+using ffseg_test::ArenaBox;
+
+namespace {
+
+struct StageBox {
+  ffseg::CubeSphere m;
+  ffseg::TriangleScratch tri;
+  ArenaBox box;
+  explicit StageBox(uint32_t n)
+      : box([&](ffseg::Arena& a) {
+          m.carve(a, n);
+          tri.carve(a, m);
+        }) {
+    REQUIRE(box.ok());
+    m.build();
+  }
+  // Positions of the sphere of radius r around the origin.
+  std::vector<double> sphere(double r) const {
+    std::vector<double> x(size_t(3) * m.nv);
+    for (size_t q = 0; q < x.size(); ++q) x[q] = r * m.unit[q];
+    return x;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("step guard: a step that would cross is held back where it crosses, the rest moves in full") {
+  // The guard first scales the whole update by 1, 1/2, 1/4; when even a
+  // quarter would cross, only the region around the offender backs off.
+  StageBox b(12);
+  const uint32_t nv = b.m.nv;
+  const std::vector<double> x_old = b.sphere(10);
+  // Proposal: every vertex 1 mm outward; one vertex 50 mm through the far side
+  // (a quarter of that still crosses).
+  const uint32_t bad = nv / 3;
+  std::vector<double> x_new(size_t(3) * nv);
+  for (uint32_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a)
+      x_new[size_t(a) * nv + v] = (v == bad ? -50.0 : 11.0) * b.m.unit[3 * v + a];
+  std::vector<double> xs(size_t(3) * nv), share(nv);
+  std::vector<uint8_t> mark(nv), grow(nv);
+  const double kept = ffseg::guard_step(b.m, x_old.data(), x_new.data(), xs.data(), share.data(), mark.data(),
+                                        grow.data(), b.tri);
+  CAPTURE(kept);
+  CHECK(kept < 1.0);
+  CHECK(kept > 0.5);  // one region backs off, not the whole mesh
+  std::vector<double> out(size_t(3) * nv);
+  for (uint32_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a) out[3 * v + a] = x_new[size_t(a) * nv + v];
+  CHECK(ffseg::mark_intersections(b.m, out.data(), b.tri, nullptr) == 0);
+  CHECK(ffseg::mark_violations(b.m, x_old.data(), out.data(), nullptr) == 0);
+  // A vertex a quarter turn away from the offender (its path and the spot
+  // where it would come out are both far) moved its full millimetre.
+  uint32_t far = 0;
+  double best = 1e300;
+  for (uint32_t v = 0; v < nv; ++v) {
+    double dot = 0;
+    for (int a = 0; a < 3; ++a) dot += b.m.unit[3 * v + a] * b.m.unit[3 * bad + a];
+    if (std::fabs(dot) < best) { best = std::fabs(dot); far = v; }
+  }
+  double r = 0;
+  for (int a = 0; a < 3; ++a) r += out[3 * far + a] * out[3 * far + a];
+  CAPTURE(far);
+  CAPTURE(share[far]);
+  CHECK(std::sqrt(r) == doctest::Approx(11.0).epsilon(1e-9));
+  // The offender did not go through.
+  double dot = 0;
+  for (int a = 0; a < 3; ++a) dot += out[3 * bad + a] * b.m.unit[3 * bad + a];
+  CHECK(dot > 0);
+}
+
+TEST_CASE("step guard: the last step's fold-test cache, swapped in at its accepted positions, changes nothing") {
+  // One scratch kept across steps (the cache of the accepted positions is
+  // reused as the next step's old one) against a scratch told each time that
+  // it has nothing to reuse: the same shares and positions bit for bit, over
+  // steps that pass whole, back off locally and back off entirely.
+  StageBox a(12), b(12);
+  const uint32_t nv = a.m.nv;
+  std::mt19937_64 rng(99);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  std::vector<double> x = a.sphere(10);
+  std::vector<double> xs(size_t(3) * nv), share(nv), xs2(size_t(3) * nv), share2(nv);
+  std::vector<uint8_t> mark(nv), grow(nv), mark2(nv), grow2(nv);
+  uint32_t backed_off = 0;
+  for (int step = 0; step < 12; ++step) {
+    CAPTURE(step);
+    std::vector<double> prop(size_t(3) * nv);
+    const uint32_t bad = step % 3 == 1 ? uint32_t(step * 37) % nv : nv;  // every third: one vertex through
+    for (uint32_t v = 0; v < nv; ++v)
+      for (int c = 0; c < 3; ++c)
+        prop[size_t(c) * nv + v] = v == bad ? -5.0 * x[3 * v + c] : x[3 * v + c] + 0.3 * U(rng);
+    std::vector<double> p1 = prop, p2 = prop;
+    b.tri.new_key_valid = false;
+    const double k1 = ffseg::guard_step(a.m, x.data(), p1.data(), xs.data(), share.data(), mark.data(), grow.data(),
+                                        a.tri);
+    const double k2 = ffseg::guard_step(b.m, x.data(), p2.data(), xs2.data(), share2.data(), mark2.data(),
+                                        grow2.data(), b.tri);
+    CHECK(k1 == k2);
+    CHECK(share == share2);
+    REQUIRE(p1 == p2);
+    backed_off += k1 < 1.0;
+    for (uint32_t v = 0; v < nv; ++v)
+      for (int c = 0; c < 3; ++c) x[3 * v + c] = p1[size_t(c) * nv + v];
+    CHECK(ffseg::mark_intersections(a.m, x.data(), a.tri, nullptr) == 0);
+  }
+  CHECK(backed_off >= 3);
+  CHECK(a.tri.reused_old_cache >= 6);  // swapped in on most steps
+  CHECK(b.tri.reused_old_cache == 0);
+}
