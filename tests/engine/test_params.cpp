@@ -11,6 +11,7 @@
 #include <cstring>
 #include <string>
 
+#include "../../capi/capi_internal.h"  // engine_of()
 #include "cli/param_args.h"
 #include "engine.h"
 #include "ffseg.h"
@@ -69,7 +70,8 @@ struct SmallEngine {
     ffseg_destroy(e);
     std::free(ws);
   }
-  const ffseg::Params& params() const { return reinterpret_cast<const ffseg::Engine*>(e)->params(); }
+  // The engine sits behind the workspace guard (capi/capi_internal.h).
+  const ffseg::Params& params() const { return ffseg::capi::engine_of(e)->params(); }
 };
 
 }  // namespace
