@@ -151,6 +151,10 @@ size_t total_bytes(size_t engine_bytes) {
   return kGuardBytes + engine_bytes + kTailBytes;
 }
 
+// The first released ffseg_config (0.1) ended after max_roi_voxels; such a
+// caller gets target_mode's default, intensity allowed, as before.
+const size_t kConfigV1Size = offsetof(ffseg_config, target_mode);
+
 // Converts the public config; returns an error status or OK.
 ffseg_status convert_config(const ffseg_config* c, ffseg::Config* out, char* msg, size_t n) {
   if (c == nullptr) {
@@ -159,17 +163,23 @@ ffseg_status convert_config(const ffseg_config* c, ffseg::Config* out, char* msg
   }
   ffseg_config full;
   ffseg_config_init_default(&full);
-  if (!read_versioned(c, sizeof(ffseg_config), &full)) {
-    std::snprintf(msg, n, "config.struct_size = %u is smaller than %zu", c->struct_size, sizeof(ffseg_config));
+  if (!read_versioned(c, kConfigV1Size, &full)) {
+    std::snprintf(msg, n, "config.struct_size = %u is smaller than %zu", c->struct_size, kConfigV1Size);
     return FFSEG_ERR_STRUCT_SIZE;
   }
-  if (full.reserved0 != 0) {
-    std::snprintf(msg, n, "config.reserved0 must be 0");
+  if (full.reserved0 != 0 || full.reserved1 != 0) {
+    std::snprintf(msg, n, "config.%s must be 0", full.reserved0 != 0 ? "reserved0" : "reserved1");
+    return FFSEG_ERR_INVALID_ARGUMENT;
+  }
+  if (full.target_mode != FFSEG_TARGET_BINARY && full.target_mode != FFSEG_TARGET_INTENSITY) {
+    std::snprintf(msg, n, "config.target_mode = %u is neither FFSEG_TARGET_BINARY (0) nor FFSEG_TARGET_INTENSITY (1)",
+                  full.target_mode);
     return FFSEG_ERR_INVALID_ARGUMENT;
   }
   out->max_objects = full.max_objects;
   out->mesh_resolution = full.mesh_resolution;
   out->max_roi_voxels = full.max_roi_voxels;
+  out->target_mode = ffseg::TargetMode(full.target_mode);
   return to_status(ffseg::check_config(*out, msg, n));
 }
 
@@ -230,6 +240,7 @@ FFSEG_API void ffseg_config_init_default(ffseg_config* c) {
   c->max_objects = d.max_objects;
   c->mesh_resolution = d.mesh_resolution;
   c->max_roi_voxels = d.max_roi_voxels;
+  c->target_mode = uint32_t(d.target_mode);
 }
 
 FFSEG_API ffseg_status ffseg_workspace_size(const ffseg_config* c, size_t* bytes) {

@@ -60,7 +60,7 @@ extern "C" {
 
 /* ---- Version ------------------------------------------------------------ */
 #define FFSEG_VERSION_MAJOR 0
-#define FFSEG_VERSION_MINOR 1
+#define FFSEG_VERSION_MINOR 2
 #define FFSEG_VERSION_PATCH 0
 #define FFSEG_VERSION_NUMBER \
   (FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH)
@@ -127,6 +127,13 @@ typedef struct ffseg_config {
   uint32_t reserved0;       /* must be 0 */
   int64_t max_roi_voxels;   /* largest cropped region one object may use for smoothing
                                and fast marching, in voxels; 0..2^40 (default 2^22) */
+  /* Since 0.2.0 (a shorter struct, struct_size 24, reads as the default): */
+  uint32_t target_mode;     /* the target modes the engine will be asked for:
+                               FFSEG_TARGET_INTENSITY (default) reserves the grey-level
+                               buffers (smoothed crop, intensity model; both modes allowed);
+                               FFSEG_TARGET_BINARY reserves none, much smaller workspace,
+                               and ffseg_set_params refuses target_mode = intensity */
+  uint32_t reserved1;       /* must be 0 */
 } ffseg_config;
 
 /* Fills *c with the defaults above and struct_size = sizeof(ffseg_config). */

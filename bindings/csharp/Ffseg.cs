@@ -63,6 +63,8 @@ public struct Config {
   public uint MeshResolution;
   public uint Reserved0;
   public long MaxRoiVoxels;
+  public uint TargetMode;  // FFSEG_TARGET_INTENSITY (default) or FFSEG_TARGET_BINARY: binary only, smaller workspace
+  public uint Reserved1;
 
   public static Config Default() {
     Config c;

@@ -14,6 +14,7 @@ int main(void) {
   S(ffseg_config);
   F(ffseg_config, struct_size); F(ffseg_config, max_objects); F(ffseg_config, mesh_resolution);
   F(ffseg_config, reserved0); F(ffseg_config, max_roi_voxels);
+  F(ffseg_config, target_mode); F(ffseg_config, reserved1);
 
   S(ffseg_params);
   F(ffseg_params, struct_size); F(ffseg_params, target_mode); F(ffseg_params, lambda_laplacian);

@@ -55,8 +55,12 @@ void Engine::layout(Arena& a) {
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     Object* o = objects_ ? new (&objects_[i]) Object() : &probe;
     o->x = a.alloc<double>(size_t(3) * mesh_.nv);
-    o->roi.carve(a, cfg_.max_roi_voxels, cpu_);
-    o->model.carve(a, IntensityModel::kDefaultSamples, cpu_);
+    // Grey-level buffers only when the configuration allows grey-level
+    // targets: a binary-only engine never smooths a crop nor fits a model.
+    if (cfg_.target_mode == TargetMode::intensity) {
+      o->roi.carve(a, cfg_.max_roi_voxels, cpu_);
+      o->model.carve(a, IntensityModel::kDefaultSamples, cpu_);
+    }
     o->step.carve(a, mesh_.nv);
   }
 }
@@ -84,6 +88,12 @@ Engine* Engine::create(const Config& c, void* ws, size_t bytes) {
 }
 
 Err Engine::set_params(const Params& p) {
+  if (p.target_mode == TargetMode::intensity && cfg_.target_mode == TargetMode::binary) {
+    std::snprintf(msg_, kMsgLen,
+                  "params.target_mode = intensity on an engine created binary-only (config.target_mode = "
+                  "FFSEG_TARGET_BINARY reserves no grey-level buffers): create it with FFSEG_TARGET_INTENSITY");
+    return Err::invalid_argument;
+  }
   const Err r = check_params(p, msg_, kMsgLen);
   if (r == Err::ok) {
     params_ = p;

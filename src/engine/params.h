@@ -16,6 +16,9 @@ struct Config {
   uint32_t max_objects = 1;
   uint32_t mesh_resolution = 33;
   int64_t max_roi_voxels = int64_t(1) << 22;
+  // intensity: the grey-level buffers are reserved and either mode may be set;
+  // binary: none are (Engine::layout), and set_params refuses intensity.
+  TargetMode target_mode = TargetMode::intensity;
 };
 
 struct Params {

@@ -513,6 +513,8 @@ int cmd_segment(int argc, char** argv) {
   cfg.max_objects = nobj;
   cfg.mesh_resolution = mesh_resolution;
   cfg.max_roi_voxels = max_roi >= 0 ? max_roi : std::min<int64_t>(int64_t(nvox), kMaxRoiCap);
+  // A binary target needs no grey-level buffers: a much smaller workspace.
+  cfg.target_mode = params.target_mode == FFSEG_TARGET_BINARY ? FFSEG_TARGET_BINARY : FFSEG_TARGET_INTENSITY;
   size_t ws_bytes = 0;
   ffseg_status st = ffseg_workspace_size(&cfg, &ws_bytes);
   if (st != FFSEG_OK) {

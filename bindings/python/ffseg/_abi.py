@@ -39,6 +39,8 @@ class Config(C.Structure):
         ("mesh_resolution", C.c_uint32),
         ("reserved0", C.c_uint32),
         ("max_roi_voxels", C.c_int64),
+        ("target_mode", C.c_uint32),
+        ("reserved1", C.c_uint32),
     ]
 
 

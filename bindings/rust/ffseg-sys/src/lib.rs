@@ -12,7 +12,7 @@ use std::os::raw::c_char;
 pub type ffseg_status = i32;
 
 pub const FFSEG_VERSION_MAJOR: u32 = 0;
-pub const FFSEG_VERSION_MINOR: u32 = 1;
+pub const FFSEG_VERSION_MINOR: u32 = 2;
 pub const FFSEG_VERSION_PATCH: u32 = 0;
 pub const FFSEG_VERSION_NUMBER: u32 =
     FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH;
@@ -73,6 +73,8 @@ pub struct ffseg_config {
     pub mesh_resolution: u32,
     pub reserved0: u32,
     pub max_roi_voxels: i64,
+    pub target_mode: u32,
+    pub reserved1: u32,
 }
 
 #[repr(C)]

@@ -1,0 +1,155 @@
+// The workspace reserves only what the configuration uses, and its size for a
+// few configurations is pinned, as TensorFlow Lite Micro pins its arenas.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "ffseg.h"
+
+namespace {
+
+size_t workspace(uint32_t n, uint32_t objects, uint32_t target_mode) {
+  ffseg_config c;
+  ffseg_config_init_default(&c);
+  c.mesh_resolution = n;
+  c.max_objects = objects;
+  c.target_mode = target_mode;
+  size_t bytes = 0;
+  REQUIRE(ffseg_workspace_size(&c, &bytes) == FFSEG_OK);
+  return bytes;
+}
+
+}  // namespace
+
+TEST_CASE("workspace: pinned sizes of a few configurations (default max_roi_voxels = 2^22)") {
+  // PINNED. These byte counts are the memory a caller must hand over; a change
+  // to any of them must be deliberate (say why in the commit, update the
+  // number here and in BENCHMARKS/README if quoted). Measured at 0.2.0 (with the C API's 128-byte workspace guard):
+  //   binary n = 12, 8 objects:     2 442 304 B (  2.3 MiB; 147 473 472 B before
+  //                                 a binary-only configuration existed)
+  //   intensity n = 12, 1 object:  20 121 536 B ( 19.2 MiB)
+  //   intensity n = 33, 1 object:  38 716 544 B ( 36.9 MiB)
+  //   binary n = 33, 1 object:     20 587 648 B ( 19.6 MiB; the envelope factor dominates)
+  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 2442304u);
+  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20121536u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38716544u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20587648u);
+}
+
+TEST_CASE("workspace: grey-level buffers are per object and only in intensity configurations") {
+  // Whatever the pins say, the two modes differ by the same grey-level block
+  // per object (smoothed crop sized by max_roi_voxels, intensity model), and
+  // nothing else: binary-only engines carry none of it.
+  const size_t per_object = workspace(12, 1, FFSEG_TARGET_INTENSITY) - workspace(12, 1, FFSEG_TARGET_BINARY);
+  CHECK(per_object > 4 * (size_t(1) << 22));  // at least one float per crop voxel
+  CHECK(workspace(12, 8, FFSEG_TARGET_INTENSITY) - workspace(12, 8, FFSEG_TARGET_BINARY) == 8 * per_object);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) - workspace(33, 1, FFSEG_TARGET_BINARY) == per_object);
+
+  // max_roi_voxels sizes only the grey-level buffers.
+  ffseg_config c;
+  ffseg_config_init_default(&c);
+  c.mesh_resolution = 12;
+  c.target_mode = FFSEG_TARGET_BINARY;
+  size_t small = 0, large = 0;
+  c.max_roi_voxels = 0;
+  REQUIRE(ffseg_workspace_size(&c, &small) == FFSEG_OK);
+  c.max_roi_voxels = int64_t(1) << 30;
+  REQUIRE(ffseg_workspace_size(&c, &large) == FFSEG_OK);
+  CHECK(small == large);
+}
+
+TEST_CASE("workspace: a 0.1 ffseg_config (no target_mode) means intensity allowed, as before") {
+  ffseg_config c;
+  ffseg_config_init_default(&c);
+  CHECK(c.target_mode == FFSEG_TARGET_INTENSITY);
+  CHECK(c.reserved1 == 0);
+  c.mesh_resolution = 12;
+  // An old caller's struct ends at max_roi_voxels; what follows it in memory
+  // is not the caller's and must not be read.
+  c.struct_size = uint32_t(offsetof(ffseg_config, target_mode));
+  c.target_mode = 0xDEADBEEF;
+  size_t bytes = 0;
+  REQUIRE(ffseg_workspace_size(&c, &bytes) == FFSEG_OK);
+  CHECK(bytes == workspace(12, 1, FFSEG_TARGET_INTENSITY));
+  c.struct_size -= 1;
+  CHECK(ffseg_workspace_size(&c, &bytes) == FFSEG_ERR_STRUCT_SIZE);
+
+  ffseg_config_init_default(&c);
+  c.target_mode = 2;
+  CHECK(ffseg_workspace_size(&c, &bytes) == FFSEG_ERR_INVALID_ARGUMENT);
+  CHECK(std::string(ffseg_last_error(nullptr)).find("config.target_mode") != std::string::npos);
+  ffseg_config_init_default(&c);
+  c.reserved1 = 1;
+  CHECK(ffseg_workspace_size(&c, &bytes) == FFSEG_ERR_INVALID_ARGUMENT);
+  CHECK(std::string(ffseg_last_error(nullptr)).find("config.reserved1") != std::string::npos);
+}
+
+TEST_CASE("workspace: a binary-only engine is exact, refuses grey-level targets and still segments") {
+  ffseg_config c;
+  ffseg_config_init_default(&c);
+  c.mesh_resolution = 8;
+  c.target_mode = FFSEG_TARGET_BINARY;
+  size_t bytes = 0;
+  REQUIRE(ffseg_workspace_size(&c, &bytes) == FFSEG_OK);
+  const size_t cap = (bytes + 63) / 64 * 64;
+  void* ws = std::aligned_alloc(64, cap);
+  REQUIRE(ws != nullptr);
+  ffseg_engine* e = nullptr;
+  CHECK(ffseg_create(&c, ws, bytes - 1, &e) == FFSEG_ERR_WORKSPACE_TOO_SMALL);
+  REQUIRE(ffseg_create(&c, ws, bytes, &e) == FFSEG_OK);
+
+  // A 16^3 grid, 1 mm voxels, a ball of radius 5 mm at its centre.
+  std::vector<uint8_t> mask(16 * 16 * 16, 0);
+  for (int k = 0; k < 16; ++k)
+    for (int j = 0; j < 16; ++j)
+      for (int i = 0; i < 16; ++i) {
+        const double x = i - 7.5, y = j - 7.5, z = k - 7.5;
+        mask[size_t((k * 16 + j) * 16 + i)] = x * x + y * y + z * z <= 25 ? 1 : 0;
+      }
+  ffseg_volume v;
+  std::memset(&v, 0, sizeof v);
+  v.struct_size = sizeof v;
+  v.voxel_type = FFSEG_U8;
+  v.data = mask.data();
+  v.data_bytes = mask.size();
+  for (int a = 0; a < 3; ++a) v.dims[a] = 16;
+  v.strides[0] = 1;
+  v.strides[1] = 16;
+  v.strides[2] = 256;
+  for (int a = 0; a < 4; ++a) v.index_to_world[5 * a] = 1;
+  v.rescale_slope = 1;
+  REQUIRE(ffseg_set_volume(e, &v) == FFSEG_OK);
+
+  ffseg_params p;
+  ffseg_params_init_default(&p);
+  p.target_mode = FFSEG_TARGET_INTENSITY;
+  CHECK(ffseg_set_params(e, &p) == FFSEG_ERR_INVALID_ARGUMENT);
+  const std::string msg = ffseg_last_error(e);
+  CHECK(msg.find("params.target_mode") != std::string::npos);
+  CHECK(msg.find("binary-only") != std::string::npos);
+  p.target_mode = FFSEG_TARGET_BINARY;
+  REQUIRE(ffseg_set_params(e, &p) == FFSEG_OK);
+
+  const double centre[3] = {7.5, 7.5, 7.5};
+  REQUIRE(ffseg_init_sphere(e, 0, centre, 2.0) == FFSEG_OK);
+  ffseg_status st = FFSEG_OK;
+  for (int s = 0; s < 100 && st == FFSEG_OK; ++s) st = ffseg_step(e, nullptr);
+  CHECK(st == FFSEG_CONVERGED);
+  std::vector<float> xyz(6 * 8 * 8 * 3);
+  size_t nv = 0, nt = 0;
+  REQUIRE(ffseg_extract_mesh(e, 0, xyz.data(), xyz.size() / 3, nullptr, 0, &nv, &nt) == FFSEG_OK);
+  double mean_r = 0;
+  for (size_t q = 0; q < nv; ++q) {
+    double r2 = 0;
+    for (int a = 0; a < 3; ++a) r2 += (xyz[3 * q + a] - 7.5) * (xyz[3 * q + a] - 7.5);
+    mean_r += std::sqrt(r2) / double(nv);
+  }
+  CHECK(mean_r == doctest::Approx(5.0).epsilon(0.1));  // grew from 2 mm onto the 5 mm ball
+  ffseg_destroy(e);
+  std::free(ws);
+}
