@@ -15,6 +15,8 @@
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
+#include "arena.h"
+#include "fast_marching.h"
 #include "ffseg.h"
 
 extern "C" void* __libc_malloc(size_t);
@@ -161,4 +163,45 @@ TEST_CASE("create, set_volume, init_sphere, extract_mesh, rasterize, step and de
   CHECK(inside > 0);
   CHECK(calls == 0);
   std::free(ws);
+}
+
+// Fast marching directly (image/fast_marching, not yet wired into the engine):
+// begin, seeds, a capped march, a too-large crop's message and label merging.
+
+TEST_CASE("fast marching: begin, seed, march and merge_labels never allocate") {
+  const int64_t n[3] = {24, 20, 16};
+  const double h[3] = {0.7, 0.9, 2.5};
+  ffseg::FastMarching fm;
+  ffseg::Arena probe;
+  fm.carve(probe, n[0] * n[1] * n[2], true);
+  void* mem = aligned_alloc(64, probe.used());
+  ffseg::Arena arena(mem, probe.used());
+  fm.carve(arena, n[0] * n[1] * n[2], true);
+  REQUIRE(arena.ok());
+  int calls = -1;
+  bool ok = true;
+  int64_t reached[2] = {0, 0};
+  {
+    Trap trap;
+    char msg[160];
+    const int64_t big[3] = {25, 20, 16};
+    ok = ok && fm.begin(big, h, msg, sizeof msg) == ffseg::FmStatus::too_large;
+    ok = ok && fm.begin(n, h, msg, sizeof msg) == ffseg::FmStatus::ok;
+    float* s = fm.speed_buffer();
+    for (int64_t v = 0; v < fm.voxel_count(); ++v) s[v] = 1.0f;
+    for (uint16_t f = 0; f < 2; ++f) {
+      fm.clear_front();
+      ok = ok && fm.seed(f ? 20 : 3, 10, 8) == ffseg::FmStatus::ok;
+      ok = ok && fm.march(s, f ? 6.0f : 1e30f) == ffseg::FmStatus::ok;
+      reached[f] = fm.accepted();
+      ok = ok && fm.merge_labels(f) == ffseg::FmStatus::ok;
+    }
+    calls = trap.calls();
+  }
+  std::free(mem);
+  CHECK(ok);
+  CHECK(reached[0] == n[0] * n[1] * n[2]);
+  CHECK(reached[1] > 0);
+  CHECK(reached[1] < reached[0]);
+  CHECK(calls == 0);
 }
