@@ -52,7 +52,7 @@ constexpr double kIntensitySearchRangeMm = 20;
 struct IntensitySearchSettings {
   double range_mm = kIntensitySearchRangeMm;  // R_s
   double step_mm = 0;                   // sample spacing; <= 0: half the smallest voxel spacing
-  double gamma = 0.05;                  // Gamma on the peak-normalised g, (0, 1)
+  double gamma = 0.2;                   // Gamma on the peak-normalised g, (0, 1): Params' default
   uint32_t consecutive_background = 3;  // N
   uint32_t refine_iterations = 8;       // bisection steps (step_mm / 256 with the default)
   bool partial_volume = false;          // boundary at the half-way level (see above)

@@ -363,7 +363,7 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   if (ts.new_key_valid && std::memcmp(ts.new_key, x_old, 3 * nv * sizeof(double)) == 0) {
     std::swap(ts.face_n_old, ts.face_n_new);
     std::swap(ts.face_alt_old, ts.face_alt_new);
-    ++ts.reused_old_cache;
+    ts.count_reused_cache();
   } else {
     for (uint32_t f = 0; f < m.nfaces; ++f) cache_face(m, f, x_old, ts.face_n_old, ts.face_alt_old);
   }

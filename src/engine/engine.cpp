@@ -13,8 +13,9 @@
 namespace ffseg {
 
 // Doubles reserved for the envelope factor: measured stored entries per row
-// are 5.06 n + 5 for n = 2..128 under RCM (tests/test_deform.cpp checks the
-// bound); a closed form keeps the size query exact without building the mesh.
+// are 5.06 n + 5 for n = 2..128 under RCM (a scan over those sizes,
+// BENCHMARKS section 1); a closed form keeps the size query exact without
+// building the mesh.
 uint64_t solver_capacity(uint32_t n, uint32_t nv) {
   const uint64_t npad = (uint64_t(nv) + 3) / 4 * 4;
   return npad * (uint64_t(21 * n) / 4 + 24);

@@ -4,6 +4,7 @@
 #pragma once
 #include "engine.h"
 #include "image_testing.h"  // ExpBlockTesting
+#include "mesh_testing.h"   // TriangleScratchTesting
 #include "solve_testing.h"  // EnvelopeCholeskyTesting
 #include "testing_hooks.h"  // CpuDispatchTesting
 

@@ -15,7 +15,7 @@
 // exp, documented with the implementation - then returns hi as well. Every
 // other lane (about 4%: within 0.02 ulp of a midpoint, x outside
 // (-670, 709), NaN) calls std::exp. So results are std::exp's bit for bit on
-// such a libm; tests/test_intensity.cpp checks it on tens of millions of
+// such a libm; tests/image/test_intensity.cpp checks it on tens of millions of
 // arguments. Without AVX-512F every value goes to std::exp.
 #pragma once
 #include <cstdint>

@@ -538,10 +538,10 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
     s.lo[q] -= s.eps;
     s.hi[q] += s.eps;
   }
-  if (!mark && s.use_certificate) {
+  if (!mark && s.certificate_enabled()) {
     const int r = certified_check(m, x, s);
     if (r >= 0) {
-      ++s.certified_calls;
+      s.count_certified();
       return uint32_t(r);
     }
   }

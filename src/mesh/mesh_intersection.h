@@ -58,14 +58,22 @@ struct TriangleScratch {
   // are usually these, and then the cache is swapped in instead of computed.
   double* new_key = nullptr;
   bool new_key_valid = false;
-  uint32_t reused_old_cache = 0;  // guard steps that swapped it in
   // The yes/no query (mark == nullptr) first tries to certify the mesh's
-  // local windows free of crossings (patch_certificate.h); use_certificate =
-  // false always takes the plain path (tests compare the two).
+  // local windows free of crossings (patch_certificate.h).
   PatchCertificate cert;
-  bool use_certificate = true;
-  uint32_t certified_calls = 0;  // yes/no queries the certificate decided
   void carve(Arena& a, const CubeSphere& m);
+
+  bool certificate_enabled() const { return use_certificate_; }
+  void count_certified() { ++certified_calls_; }
+  void count_reused_cache() { ++reused_old_cache_; }
+
+ private:
+  // Switches and counters for the tests (mesh_testing.h), which compare the
+  // certified and the plain path and check that the guard's cache is used.
+  friend struct TriangleScratchTesting;
+  bool use_certificate_ = true;
+  uint32_t certified_calls_ = 0;   // yes/no queries the certificate decided
+  uint32_t reused_old_cache_ = 0;  // guard steps that swapped the cache in
 };
 
 // Marks (mark[v] = 1, when mark is not nullptr) the vertices of every

@@ -11,34 +11,12 @@
 #include "diffusion.h"
 #include "mesh_intersection.h"
 #include "step_guard.h"
+#include "support/sphere_box.h"
 #include "test_util.h"
 #include "testing.h"
 
-using ffseg_test::ArenaBox;
+using StageBox = ffseg_test::TriangleBox;
 
-namespace {
-
-struct StageBox {
-  ffseg::CubeSphere m;
-  ffseg::TriangleScratch tri;
-  ArenaBox box;
-  explicit StageBox(uint32_t n)
-      : box([&](ffseg::Arena& a) {
-          m.carve(a, n);
-          tri.carve(a, m);
-        }) {
-    REQUIRE(box.ok());
-    m.build();
-  }
-  // Positions of the sphere of radius r around the origin.
-  std::vector<double> sphere(double r) const {
-    std::vector<double> x(size_t(3) * m.nv);
-    for (size_t q = 0; q < x.size(); ++q) x[q] = r * m.unit[q];
-    return x;
-  }
-};
-
-}  // namespace
 
 TEST_CASE("diffusion: every kernel gives the portable rounds bit for bit (all displaced, and with gaps)") {
   StageBox b(13);

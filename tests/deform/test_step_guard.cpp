@@ -11,34 +11,12 @@
 #include "diffusion.h"
 #include "mesh_intersection.h"
 #include "step_guard.h"
+#include "support/sphere_box.h"
 #include "test_util.h"
 #include "testing.h"
 
-using ffseg_test::ArenaBox;
+using StageBox = ffseg_test::TriangleBox;
 
-namespace {
-
-struct StageBox {
-  ffseg::CubeSphere m;
-  ffseg::TriangleScratch tri;
-  ArenaBox box;
-  explicit StageBox(uint32_t n)
-      : box([&](ffseg::Arena& a) {
-          m.carve(a, n);
-          tri.carve(a, m);
-        }) {
-    REQUIRE(box.ok());
-    m.build();
-  }
-  // Positions of the sphere of radius r around the origin.
-  std::vector<double> sphere(double r) const {
-    std::vector<double> x(size_t(3) * m.nv);
-    for (size_t q = 0; q < x.size(); ++q) x[q] = r * m.unit[q];
-    return x;
-  }
-};
-
-}  // namespace
 
 TEST_CASE("step guard: a step that would cross is held back where it crosses, the rest moves in full") {
   // The guard first scales the whole update by 1, 1/2, 1/4; when even a
@@ -120,6 +98,6 @@ TEST_CASE("step guard: the last step's fold-test cache, swapped in at its accept
     CHECK(ffseg::mark_intersections(a.m, x.data(), a.tri, nullptr) == 0);
   }
   CHECK(backed_off >= 3);
-  CHECK(a.tri.reused_old_cache >= 6);  // swapped in on most steps
-  CHECK(b.tri.reused_old_cache == 0);
+  CHECK(ffseg::TriangleScratchTesting::reused_old_cache(a.tri) >= 6);  // swapped in on most steps
+  CHECK(ffseg::TriangleScratchTesting::reused_old_cache(b.tri) == 0);
 }

@@ -11,34 +11,12 @@
 #include "diffusion.h"
 #include "mesh_intersection.h"
 #include "step_guard.h"
+#include "support/sphere_box.h"
 #include "test_util.h"
 #include "testing.h"
 
-using ffseg_test::ArenaBox;
+using StageBox = ffseg_test::TriangleBox;
 
-namespace {
-
-struct StageBox {
-  ffseg::CubeSphere m;
-  ffseg::TriangleScratch tri;
-  ArenaBox box;
-  explicit StageBox(uint32_t n)
-      : box([&](ffseg::Arena& a) {
-          m.carve(a, n);
-          tri.carve(a, m);
-        }) {
-    REQUIRE(box.ok());
-    m.build();
-  }
-  // Positions of the sphere of radius r around the origin.
-  std::vector<double> sphere(double r) const {
-    std::vector<double> x(size_t(3) * m.nv);
-    for (size_t q = 0; q < x.size(); ++q) x[q] = r * m.unit[q];
-    return x;
-  }
-};
-
-}  // namespace
 
 TEST_CASE("self-intersection test: a sphere is clean, a vertex pushed through the far side is caught") {
   StageBox b(12);
@@ -95,15 +73,15 @@ TEST_CASE("self-intersection test: the patch certificate answers the yes/no quer
       }
       CAPTURE(n);
       CAPTURE(trial);
-      b.tri.use_certificate = false;
+      ffseg::TriangleScratchTesting::use_certificate(b.tri, false);
       const bool plain = ffseg::mark_intersections(b.m, x.data(), b.tri, nullptr) > 0;
       const bool marked = ffseg::mark_intersections(b.m, x.data(), b.tri, mark.data()) > 0;
-      b.tri.use_certificate = true;
-      const uint32_t before = b.tri.certified_calls;
+      ffseg::TriangleScratchTesting::use_certificate(b.tri, true);
+      const uint32_t before = ffseg::TriangleScratchTesting::certified_calls(b.tri);
       const bool cert = ffseg::mark_intersections(b.m, x.data(), b.tri, nullptr) > 0;
       CHECK(plain == marked);
       CHECK(cert == plain);
-      if (b.tri.certified_calls > before) (cert ? certified_yes : certified_no) += 1;
+      if (ffseg::TriangleScratchTesting::certified_calls(b.tri) > before) (cert ? certified_yes : certified_no) += 1;
       ++cases;
     }
   }
@@ -118,7 +96,7 @@ TEST_CASE("self-intersection test: the patch certificate answers the yes/no quer
     StageBox b(n);
     const std::vector<double> x = b.sphere(25);
     CHECK(ffseg::mark_intersections(b.m, x.data(), b.tri, nullptr) == 0);
-    CHECK(b.tri.certified_calls == 1);
+    CHECK(ffseg::TriangleScratchTesting::certified_calls(b.tri) == 1);
     CHECK(b.tri.cert.nfailed <= b.tri.cert.ncl / 16);
   }
 }
