@@ -60,7 +60,7 @@ extern "C" {
 
 /* ---- Version ------------------------------------------------------------ */
 #define FFSEG_VERSION_MAJOR 0
-#define FFSEG_VERSION_MINOR 2
+#define FFSEG_VERSION_MINOR 3
 #define FFSEG_VERSION_PATCH 0
 #define FFSEG_VERSION_NUMBER \
   (FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH)
@@ -277,7 +277,8 @@ FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object,
 #define FFSEG_STAGE_SOLVE 6
 #define FFSEG_STAGE_FEATURES 7 /* grey levels: smoothing the crop, fitting the model */
 #define FFSEG_STAGE_GUARD 8    /* the line search that keeps the update flip- and fold-free */
-#define FFSEG_STAGE_COUNT 9
+#define FFSEG_STAGE_REGIONS 9  /* several objects: the bounding regions (fast marching, thesis 6.2) */
+#define FFSEG_STAGE_COUNT 10
 /* Per-object figures are reported for the first FFSEG_REPORT_OBJECTS objects. */
 #define FFSEG_REPORT_OBJECTS 16
 

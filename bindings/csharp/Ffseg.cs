@@ -52,7 +52,7 @@ public static class TargetMode {
 
 public static class Limits {
   public const int ReportObjects = 16;
-  public const int StageCount = 9;
+  public const int StageCount = 10;
 }
 
 // ffseg_config. Config.Default() is the library's default.
@@ -132,7 +132,7 @@ public unsafe struct StepInfo {
   public fixed uint FlipsAvoided[16];
   public fixed uint IntersectionsAvoided[16];
   public fixed uint BorderVertices[16];
-  public fixed ulong StageUs[9];
+  public fixed ulong StageUs[10];
 }
 
 internal static class Native {

@@ -68,7 +68,8 @@ double indicator_t(const VolumeView& vol, const double p[3]) {
 
 template <class T>
 uint32_t search_binary_t(const VolumeView& vol, uint32_t nv, const double* x, const double* normals,
-                         const SearchSettings& s, double* target, uint8_t* has) {
+                         const SearchSettings& s, double* target, uint8_t* has, const RegionLimit* region,
+                         uint8_t* border) {
   uint32_t found = 0;
   // At most kMaxSamples samples per vertex: a tiny step must neither overflow
   // the count nor stall the step.
@@ -99,6 +100,7 @@ uint32_t search_binary_t(const VolumeView& vol, uint32_t nv, const double* x, co
       }
     }
     has[v] = 0;
+    if (border) border[v] = 0;
     const double* u = x + 3 * size_t(v);
     double p0[3], dir[3];
     vol.world_to_index(u, p0);
@@ -112,6 +114,17 @@ uint32_t search_binary_t(const VolumeView& vol, uint32_t nv, const double* x, co
       if (t > s.range_mm) t = s.range_mm;
       double p[3];
       for (int a = 0; a < 3; ++a) p[a] = p0[a] + sgn * t * dir[a];
+      if (region && inside && region->foreign(p)) {
+        // Another object's region (thesis 6.3): the last sample before it,
+        // less a sample of clearance (two objects' border vertices then stay
+        // about a voxel apart instead of meeting at the shared face).
+        const double tb = t_prev > step_mm ? t_prev - step_mm : 0.0;
+        for (int a = 0; a < 3; ++a) target[3 * size_t(v) + a] = u[a] + tb * normals[3 * size_t(v) + a];
+        has[v] = 1;
+        border[v] = 1;
+        ++found;
+        break;
+      }
       const bool in = indicator_t<T>(vol, p) >= 0.5;
       if (in != inside) {
         // Bisection on the bracket [t_prev, t] for the 0.5 level.
@@ -152,14 +165,15 @@ double indicator_linear(const VolumeView& vol, const double p[3]) {
 }
 
 uint32_t search_binary(const VolumeView& vol, uint32_t nv, const double* x, const double* normals,
-                       const SearchSettings& s, double* target, uint8_t* has) {
+                       const SearchSettings& s, double* target, uint8_t* has, const RegionLimit* region,
+                       uint8_t* border) {
   switch (vol.type()) {
-    case VoxelType::U8: return search_binary_t<uint8_t>(vol, nv, x, normals, s, target, has);
-    case VoxelType::I16: return search_binary_t<int16_t>(vol, nv, x, normals, s, target, has);
-    case VoxelType::U16: return search_binary_t<uint16_t>(vol, nv, x, normals, s, target, has);
-    case VoxelType::I32: return search_binary_t<int32_t>(vol, nv, x, normals, s, target, has);
-    case VoxelType::F32: return search_binary_t<float>(vol, nv, x, normals, s, target, has);
-    case VoxelType::F64: return search_binary_t<double>(vol, nv, x, normals, s, target, has);
+    case VoxelType::U8: return search_binary_t<uint8_t>(vol, nv, x, normals, s, target, has, region, border);
+    case VoxelType::I16: return search_binary_t<int16_t>(vol, nv, x, normals, s, target, has, region, border);
+    case VoxelType::U16: return search_binary_t<uint16_t>(vol, nv, x, normals, s, target, has, region, border);
+    case VoxelType::I32: return search_binary_t<int32_t>(vol, nv, x, normals, s, target, has, region, border);
+    case VoxelType::F32: return search_binary_t<float>(vol, nv, x, normals, s, target, has, region, border);
+    case VoxelType::F64: return search_binary_t<double>(vol, nv, x, normals, s, target, has, region, border);
   }
   return 0;
 }

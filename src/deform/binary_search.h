@@ -6,6 +6,7 @@
 #pragma once
 #include <cstdint>
 
+#include "bounding_region.h"
 #include "volume.h"
 
 namespace ffseg {
@@ -23,8 +24,12 @@ struct SearchSettings {
 double indicator_linear(const VolumeView& vol, const double p[3]);
 
 // For every vertex: has[v] = 1 and target[3v..] = the crossing, or has[v] = 0
-// (solitary). Returns the number of vertices with a target.
+// (solitary). Returns the number of vertices with a target. With region
+// (several objects, thesis 6.3; border then required): an outward ray that
+// reaches a sample of another object's region stops at the sample before it,
+// which is the target, and border[v] = 1 (else 0).
 uint32_t search_binary(const VolumeView& vol, uint32_t nv, const double* x, const double* normals,
-                       const SearchSettings& s, double* target, uint8_t* has);
+                       const SearchSettings& s, double* target, uint8_t* has, const RegionLimit* region = nullptr,
+                       uint8_t* border = nullptr);
 
 }  // namespace ffseg

@@ -46,8 +46,11 @@ double partial_volume_crossing(const SmoothedRoi& roi, const IntensityModel& mod
 }  // namespace
 
 __attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const IntensityModel& model, uint32_t nv, const double* x,
-                          const double* normals, const IntensitySearchSettings& s, double* target, uint8_t* has) {
+                          const double* normals, const IntensitySearchSettings& s, double* target, uint8_t* has,
+                          const RegionLimit* region, uint8_t* border) {
   for (uint32_t v = 0; v < nv; ++v) has[v] = 0;
+  if (border)
+    for (uint32_t v = 0; v < nv; ++v) border[v] = 0;
   if (!roi.valid() || !model.valid() || !(s.range_mm > 0)) return 0;
   const double* sp = roi.spacing();
   double step = s.step_mm;
@@ -80,7 +83,24 @@ __attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const
       // Last object sample j followed by N background samples (eq. 5.3.1).
       int64_t j = 0;
       uint32_t run = 0;
+      bool at_border = false;
       for (int64_t i = 1; i <= M + int64_t(N); ++i) {
+        if (region) {
+          const double t = double(i) * step;
+          const double p[3] = {p0[0] + t * d[0], p0[1] + t * d[1], p0[2] + t * d[2]};
+          if (region->foreign(p)) {
+            // Another object's region (thesis 6.3) reached. Past a boundary
+            // already (background samples since j): that boundary, as if
+            // confirmed. Else the last sample before it, a border vertex.
+            if (run == 0) at_border = true;
+            ok = true;
+            ta = double(j) * step;
+            tb = double(j + 1) * step;
+            // The border's target keeps a sample of clearance (binary_search.cpp).
+            if (at_border) ta = tb = i >= 2 ? double(i - 2) * step : 0.0;
+            break;
+          }
+        }
         if (object_at(double(i) * step)) {
           j = i;
           run = 0;
@@ -112,6 +132,13 @@ __attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const
       }
     }
     if (!ok) continue;
+    if (ta == tb) {  // a border vertex: no crossing to refine
+      for (int a = 0; a < 3; ++a) target[3 * size_t(v) + a] = u[a] + ta * n[a];
+      has[v] = 1;
+      border[v] = 1;
+      ++found;
+      continue;
+    }
     // ta has the vertex's state, tb the other one: bisect for the crossing.
     for (uint32_t it = 0; it < s.refine_iterations; ++it) {
       const double mid = 0.5 * (ta + tb);

@@ -40,6 +40,7 @@
 #pragma once
 #include <cstdint>
 
+#include "bounding_region.h"
 #include "intensity_model.h"
 #include "smoothing.h"
 
@@ -66,7 +67,12 @@ inline bool intensity_object(const SmoothedRoi& roi, const IntensityModel& model
 // For every vertex (x, normals: 3 nv, mm; normals need not be unit): has[v] = 1
 // and target[3v..] = the boundary point (mm), or has[v] = 0 (solitary). Returns
 // the number of vertices with a target.
+// With region (several objects, thesis 6.3; border then required): an
+// outward ray that reaches a sample of another object's region before its
+// boundary stops at the sample before it, the target, and border[v] = 1; a
+// boundary found before the other region stays (border[v] = 0).
 uint32_t search_intensity(const SmoothedRoi& roi, const IntensityModel& model, uint32_t nv, const double* x,
-                          const double* normals, const IntensitySearchSettings& s, double* target, uint8_t* has);
+                          const double* normals, const IntensitySearchSettings& s, double* target, uint8_t* has,
+                          const RegionLimit* region = nullptr, uint8_t* border = nullptr);
 
 }  // namespace ffseg

@@ -51,7 +51,12 @@ void Engine::layout(Arena& a) {
       real2)
     solver_failed_ = true;
   if (real2 && !solver_failed_) scratch_.program.build(mesh_, scratch_.solver);
+  // Several objects: bounding regions (thesis chapter 6), one front at a
+  // time in the shared marcher, each object's times in its own map.
+  const bool regions = cfg_.max_objects > 1;
+  if (regions) scratch_.carve_regions(a, cfg_.max_roi_voxels);
   objects_ = a.alloc<Object>(cfg_.max_objects);
+  region_maps_ = regions ? a.alloc<RegionMap>(cfg_.max_objects) : nullptr;
   Object probe;  // measuring pass: carve through a throw-away object
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     Object* o = objects_ ? new (&objects_[i]) Object() : &probe;
@@ -62,7 +67,13 @@ void Engine::layout(Arena& a) {
       o->roi.carve(a, cfg_.max_roi_voxels, cpu_);
       o->model.carve(a, IntensityModel::kDefaultSamples, cpu_);
     }
-    o->step.carve(a, mesh_.nv);
+    o->step.carve(a, mesh_.nv, regions);
+    if (regions) {
+      RegionMap probe_map;
+      o->region = region_maps_ ? new (&region_maps_[i]) RegionMap() : &probe_map;
+      o->region->carve(a, cfg_.max_roi_voxels);
+      if (!region_maps_) o->region = nullptr;
+    }
   }
 }
 
@@ -110,6 +121,7 @@ Err Engine::set_volume(const VolumeDesc& d) {
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     objects_[i].roi.invalidate();
     objects_[i].model.reset();
+    if (objects_[i].region) objects_[i].region->valid = false;
     objects_[i].convergence.restart();
   }
   return Err::ok;
@@ -177,6 +189,7 @@ Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
   o.convergence.reset();
   o.roi.invalidate();
   o.model.reset();
+  if (o.region) o.region->valid = false;
   return Err::ok;
 }
 
@@ -253,14 +266,24 @@ Err Engine::step(StepReport* r) {
     if (e != Err::ok) return e;
   }
   lap(kStageFeatures);
-  // (Chapter 6's bounding regions go here: every object's mesh and features
-  // are known, no object has searched yet.)
+  // 0b. Several objects: the bounding regions (thesis 6.2), now that every
+  // object's mesh and features are known and before any object searches.
+  const bool regions = placed > 1 && cfg_.max_objects > 1;
+  if (regions) {
+    const Err e = update_regions();
+    if (e != Err::ok) return e;
+  }
+  lap(kStageRegions);
+  RegionSet set{nullptr, 0};
+  if (regions) set = RegionSet{region_maps_, N};
 
-  // 1. Correspondences along the normals.
-  each_active([&](Object& o) {
-    search_correspondences(mesh_, vol_, p, o, scratch_.normals, o.step);
-    return Err::ok;
-  });
+  // 1. Correspondences along the normals (within the regions).
+  for (uint32_t i = 0; i < N; ++i) {
+    Object& o = objects_[i];
+    if (!o.active()) continue;
+    const RegionLimit limit{&set, &vol_, i};
+    search_correspondences(mesh_, vol_, p, o, regions ? &limit : nullptr, scratch_.normals, o.step);
+  }
   lap(kStageSearch);
 
   if (naive_) {
@@ -278,6 +301,7 @@ Err Engine::step(StepReport* r) {
     // 4. Diffusion of the displacements.
     each_active([&](Object& o) {
       diffuse_step(mesh_, p, o.x, o.convergence.polishing(), o.step, scratch_);
+      if (regions) hold_border_vertices(nv, o.x, o.step);
       return Err::ok;
     });
     lap(kStageDiffusion);
@@ -311,6 +335,7 @@ Err Engine::step(StepReport* r) {
       r->with_target[at] = st.found;
       r->flips_avoided[at] = st.flips_avoided;
       r->folds_avoided[at] = st.folds_avoided;
+      r->border_vertices[at] = regions ? st.borders : 0;
     }
     if (!o.convergence.record(rule(), st.mean_displacement_mm, st.moving, nv)) all_converged = false;
   }
@@ -318,6 +343,27 @@ Err Engine::step(StepReport* r) {
   r->step_index = steps_;
   r->active_objects = placed;
   return all_converged ? Err::converged : Err::ok;
+}
+
+// Each placed object's region is recomputed when it has none, every
+// region_interval steps while the object moves, and at once when its mesh
+// comes within half the width of its box (a mesh cannot outrun its region
+// between two recomputations: a step moves it by at most alpha times the
+// search range). A converged object's mesh stays, and so does its region.
+Err Engine::update_regions() {
+  const Params& p = params_;
+  const double w = p.region_width();
+  for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
+    Object& o = objects_[i];
+    if (!o.placed) continue;
+    RegionMap& r = *o.region;
+    const bool stale = !r.valid || (o.active() && (steps_ + 1 - r.computed_at >= p.region_interval ||
+                                                   !r.holds(vol_, o.x, mesh_.nv, 0.5 * w)));
+    if (!stale) continue;
+    const Err e = compute_object_region(mesh_, vol_, p, o, scratch_, steps_ + 1, msg_, kMsgLen);
+    if (e != Err::ok) return e;
+  }
+  return Err::ok;
 }
 
 ConvergenceRule Engine::rule() const {

@@ -46,6 +46,9 @@ class Engine {
   const CubeSphere& mesh() const { return mesh_; }
   const VolumeView& volume() const { return vol_; }
   const Object& object(uint32_t i) const { return objects_[i]; }
+  // Several objects: every object's bounding region, for the ownership test
+  // (count 0 in a one-object engine).
+  RegionSet regions() const { return RegionSet{region_maps_, region_maps_ ? cfg_.max_objects : 0}; }
   uint32_t magic() const { return magic_; }
   void retire() { magic_ = 0; }
 
@@ -56,6 +59,7 @@ class Engine {
   void layout(Arena& a);
   Err check_object(uint32_t object, bool must_be_placed) const;
   ConvergenceRule rule() const;
+  Err update_regions();
   friend struct EngineTesting;
 
   uint32_t magic_ = 0;
@@ -65,6 +69,7 @@ class Engine {
   CubeSphere mesh_;
   VolumeView vol_;
   Object* objects_ = nullptr;
+  RegionMap* region_maps_ = nullptr;  // several objects: object i's bounding region
   StepScratch scratch_;
   uint32_t steps_ = 0;
   bool naive_ = false;

@@ -5,10 +5,12 @@
 #include <cstdint>
 
 #include "arena.h"
+#include "bounding_region.h"
 #include "convergence.h"
 #include "cpu_dispatch.h"
 #include "cubesphere.h"
 #include "envelope_cholesky.h"
+#include "fast_marching.h"
 #include "fold_prevention.h"
 #include "intensity_model.h"
 #include "laplacian_system.h"
@@ -23,12 +25,15 @@ struct ObjectStep {
   double* target = nullptr;  // 3 nv: the correspondences v_i
   double* disp = nullptr;    // 3 nv: diffused, fold-limited displacements d_i
   uint8_t* has = nullptr;    // nv: vertex has a target / displacement
+  uint8_t* border = nullptr; // nv: its target is the last sample before another object's region
   uint32_t found = 0;        // vertices with a target
+  uint32_t borders = 0;      // border vertices (thesis 6.3)
   uint32_t flips_avoided = 0;
   uint32_t folds_avoided = 0;
   double mean_displacement_mm = 0;  // how far the step moved the vertices
   uint32_t moving = 0;              // ... and how many moved beyond the still threshold
-  void carve(Arena& a, uint32_t nv);
+  // regions: several objects, the border flags too.
+  void carve(Arena& a, uint32_t nv, bool regions);
 };
 
 struct Object {
@@ -41,6 +46,9 @@ struct Object {
   SmoothedRoi roi;
   IntensityModel model;
   double kappa = 0;  // the conductance used, kept when the crop is recomputed
+  // Several objects: the bounding region (its box and arrival times, thesis
+  // 6.2), in the engine's array of every object's regions; else nullptr.
+  RegionMap* region = nullptr;
   Convergence convergence;
   ObjectStep step;
   // Steps on: not converged (a converged object stays where it is).
@@ -65,7 +73,12 @@ struct StepScratch {
   EnvelopeCholesky solver;
   LaplacianProgram program;  // the solver's entries as assembly writes them
   CpuDispatch cpu;           // the engine's kernels (the diffusion stage's)
+  // Several objects: one front at a time marches in fm; seed_mask is its
+  // crop's rasterised mesh.
+  FastMarching fm;
+  uint8_t* seed_mask = nullptr;
   void carve(Arena& a, const CubeSphere& m);
+  void carve_regions(Arena& a, int64_t max_voxels);
 };
 
 }  // namespace ffseg

@@ -67,10 +67,45 @@ uint64_t now_us() {
                       .count());
 }
 
-void ObjectStep::carve(Arena& a, uint32_t nv) {
+void ObjectStep::carve(Arena& a, uint32_t nv, bool regions) {
   target = a.alloc<double>(size_t(3) * nv);
   disp = a.alloc<double>(size_t(3) * nv);
   has = a.alloc<uint8_t>(nv);
+  border = regions ? a.alloc<uint8_t>(nv) : nullptr;
+}
+
+void StepScratch::carve_regions(Arena& a, int64_t max_voxels) {
+  fm.carve(a, max_voxels, false);
+  seed_mask = a.alloc<uint8_t>(max_voxels > 0 ? size_t(max_voxels) : 0);
+}
+
+Err compute_object_region(const CubeSphere& m, const VolumeView& vol, const Params& p, Object& o, StepScratch& s,
+                          uint32_t step, char* msg, size_t msg_len) {
+  RegionSpeed speed;
+  if (p.target_mode == TargetMode::intensity) {
+    speed.model = &o.model;
+    speed.roi = &o.roi;
+  }
+  const RegionStatus r =
+      compute_region(m, o.x, vol, speed, p.region_width(), s.fm, s.seed_mask, *o.region, msg, msg_len);
+  if (r == RegionStatus::too_large) return Err::roi_too_large;
+  if (r != RegionStatus::ok) return Err::sphere_outside;
+  o.region->computed_at = step;
+  return Err::ok;
+}
+
+void hold_border_vertices(uint32_t nv, const double* x, ObjectStep& st) {
+  st.borders = 0;
+  if (st.border == nullptr) return;
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (!st.border[v]) continue;
+    if (!st.has[v]) {  // flip avoidance dropped its target: not held
+      st.border[v] = 0;
+      continue;
+    }
+    ++st.borders;
+    for (int a = 0; a < 3; ++a) st.disp[3 * size_t(v) + a] = st.target[3 * size_t(v) + a] - x[3 * size_t(v) + a];
+  }
 }
 
 Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object& o, char* msg, size_t msg_len) {
@@ -116,14 +151,14 @@ Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object
 }
 
 void search_correspondences(const CubeSphere& m, const VolumeView& vol, const Params& p, const Object& o,
-                            double* normals, ObjectStep& st) {
+                            const RegionLimit* region, double* normals, ObjectStep& st) {
   const uint32_t nv = m.nv;
   vertex_normals(m, o.x, normals);
   if (p.target_mode == TargetMode::binary) {
     SearchSettings ss;
     ss.range_mm = p.range_mm();
     ss.step_mm = p.search_step_mm > 0 ? p.search_step_mm : 0.5 * vol.min_spacing();
-    st.found = search_binary(vol, nv, o.x, normals, ss, st.target, st.has);
+    st.found = search_binary(vol, nv, o.x, normals, ss, st.target, st.has, region, st.border);
   } else {
     IntensitySearchSettings is;
     is.range_mm = p.range_mm();
@@ -131,7 +166,7 @@ void search_correspondences(const CubeSphere& m, const VolumeView& vol, const Pa
     is.gamma = p.intensity_gamma;
     is.consecutive_background = p.consecutive_background;
     is.partial_volume = o.convergence.refining();
-    st.found = search_intensity(o.roi, o.model, nv, o.x, normals, is, st.target, st.has);
+    st.found = search_intensity(o.roi, o.model, nv, o.x, normals, is, st.target, st.has, region, st.border);
   }
 }
 
@@ -177,7 +212,9 @@ Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x
     t0 = t1;
   };
   // p_i = u_i + alpha d_i, weights d_i / d_mean (eq. 4.2.6).
-  positional_terms(nv, x, st.disp, st.has, p.step_size, p.lambda_position, s.goal, s.weight, s.tmp);
+  const uint8_t* border = st.borders ? st.border : nullptr;
+  positional_terms(nv, x, st.disp, st.has, p.step_size, p.lambda_position, s.goal, s.weight, s.tmp, border,
+                   p.border_weight);
   // With the storage program (always, on the cube-sphere) only the values
   // are computed here: the factorisation stores them group by group.
   const bool fused = s.program.ok;
@@ -205,6 +242,13 @@ Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x
       std::snprintf(msg, msg_len, "step: the solve produced non-finite positions; mesh unchanged");
       return Err::numeric;
     }
+  // A border vertex goes to its positional target and no further (thesis
+  // 6.3): its weight already holds it there up to the solve's small give,
+  // which must not carry it across the border.
+  if (border)
+    for (uint32_t v = 0; v < nv; ++v)
+      if (border[v])
+        for (int a = 0; a < 3; ++a) s.rhs[size_t(a) * nv + v] = s.goal[3 * size_t(v) + a];
   guard_step(m, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles);
   lap(kStageGuard);
   MotionTally tally{still_mm};

@@ -21,12 +21,27 @@ namespace ffseg {
 // voxels inside it. Writes o.roi, o.model, o.kappa; on failure a message.
 Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object& o, char* msg, size_t msg_len);
 
+// Several objects (thesis 6.2): o's bounding region from its mesh o.x, with
+// its features' speed (grey levels) or the indicator's (binary), marched in
+// s.fm. Writes o.region; on failure a message (too large a box:
+// roi_too_large).
+Err compute_object_region(const CubeSphere& m, const VolumeView& vol, const Params& p, Object& o, StepScratch& s,
+                          uint32_t step, char* msg, size_t msg_len);
+
 // Correspondences along the normals of x (thesis 4.2.2, 5.3): the binary
 // crossing or, for grey levels, the boundary of the object's model (o's roi
-// and model; partial-volume boundaries while refining). Writes st.target,
-// st.has and st.found; normals: 3 nv scratch.
+// and model; partial-volume boundaries while refining). With region (several
+// objects, 6.3) a ray stops before another object's region and st.border
+// marks the vertex. Writes st.target, st.has, st.border and st.found;
+// normals: 3 nv scratch.
 void search_correspondences(const CubeSphere& m, const VolumeView& vol, const Params& p, const Object& o,
-                            double* normals, ObjectStep& st);
+                            const RegionLimit* region, double* normals, ObjectStep& st);
+
+// Border vertices (6.3) keep their own displacement towards their target,
+// not the diffused one, so that the neighbours' pull cannot carry them over
+// the border; counts them in st.borders (a border vertex whose target flip
+// avoidance dropped is no longer one).
+void hold_border_vertices(uint32_t nv, const double* x, ObjectStep& st);
 
 // Flip detection and avoidance on the contours (4.2.3-4.2.4): clears st.has
 // of all but the middle vertex of every run of flipping vertices; counts them

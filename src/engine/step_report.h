@@ -16,6 +16,7 @@ enum Stage : int {
   kStageSolve,
   kStageFeatures,
   kStageGuard,
+  kStageRegions,  // several objects: the bounding regions (thesis 6.2)
   kStageCount
 };
 

@@ -94,6 +94,29 @@ FmStatus FastMarching::seed(int64_t v) {
   return FmStatus::ok;
 }
 
+FmStatus FastMarching::seed_mask(const uint8_t* mask) {
+  if (!begun_) return FmStatus::not_carved;
+  const int64_t n0 = n_[0], n1 = n_[1], n01 = n0 * n1;
+  for (int64_t k = 0, v = 0; k < n_[2]; ++k)
+    for (int64_t j = 0; j < n1; ++j)
+      for (int64_t i = 0; i < n0; ++i, ++v) {
+        if (!mask[v] || state_[v] != kFar) continue;
+        // Inside the seed set (every face neighbour a seed): accepted at once,
+        // it could only ever relax other seeds.
+        const bool interior = i > 0 && i + 1 < n0 && j > 0 && j + 1 < n1 && k > 0 && k + 1 < n_[2] &&
+                              mask[v - 1] && mask[v + 1] && mask[v - n0] && mask[v + n0] && mask[v - n01] &&
+                              mask[v + n01];
+        if (interior) {
+          state_[v] = kAccepted;
+          t_[v] = 0.0f;
+          ++accepted_;
+        } else {
+          push_or_decrease(uint32_t(v), 0.0f);
+        }
+      }
+  return FmStatus::ok;
+}
+
 void FastMarching::sift_up(uint32_t at, Node x) {
   while (at > 0) {
     const uint32_t parent = (at - 1) / kArity;

@@ -98,6 +98,13 @@ class FastMarching {
     return seed(i + n_[0] * (j + n_[1] * k));
   }
 
+  // Seeds every voxel with mask[v] != 0 (the crop's layout), as seed() would;
+  // those whose six face neighbours are all seeds are accepted at T = 0 at
+  // once instead of passing through the heap (the same times bit for bit: a
+  // voxel inside the seed set can only relax other seeds). For a front that
+  // starts from a whole rasterised object.
+  FmStatus seed_mask(const uint8_t* mask);
+
   // Marches from the seeds over speed (one float per crop voxel, >= 0; the
   // caller's array or speed_buffer()) until every reachable voxel is accepted
   // or the next one would arrive after time_cap (+inf: no cap).

@@ -268,6 +268,17 @@ double IntensityModel::g_direct(double v) const {
   return g < 1 ? g : 1;
 }
 
+double IntensityModel::posterior(double v) const {
+  if (m_ == 0 || !(v == v)) return 0;
+  const double a = sm_ > 0 ? obj_weight_ : 1.0;  // without competitors the object is the whole scene
+  const double own = a * density(v);
+  double rival = 0;
+  for (uint32_t c = 0; c < sm_; ++c) rival += weighted_density(scene_[c], v);
+  const double outlier = a * kOutlierFraction * peak_;
+  const double den = own + rival + outlier;
+  return den > 0 ? own / den : 0.0;
+}
+
 void IntensityModel::normalise_and_tabulate(const LutSpec& lut) {
   // Peak of the mixture: a grid over mu +- 4 sigma and every mean, then a
   // golden-section refinement around the best grid point.

@@ -135,6 +135,14 @@ class IntensityModel {
     return g_direct(v);
   }
   double g_direct(double v) const;
+  // The object's posterior against the scene (thesis eq. 6.2.3), the speed of
+  // its bounding region's front: P(F | v) = a_o f(v) / (a_o f(v) + sum_c a_c
+  // f_c(v) + a_o u), the scene's competing classes as in g and u an outlier
+  // class at kOutlierFraction of the object's peak density, so that a value
+  // no class explains (far from every mean) reads near 0 instead of 0 / 0.
+  // Without competitors it is 1 wherever the object explains v well.
+  double posterior(double v) const;
+  static constexpr double kOutlierFraction = 1e-3;
   // The partial-volume level (intensity_search.cpp): the mean of the object
   // component most probable at v (highest a_i f_i(v)).
   double class_mean(double v) const;

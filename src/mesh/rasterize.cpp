@@ -37,6 +37,51 @@ inline double edge_fn(const double* pa, uint32_t ia, const double* pb, uint32_t 
   return (pb[1] - pa[1]) * (pk - pa[2]) - (pb[2] - pa[2]) * (pj - pa[1]);
 }
 
+// The toggles of the parity scan for the voxel rows (j, k) of the box
+// [lo, lo + n) (volume index space): toggle(i, j, k) for the first voxel of
+// the row, clamped to the box, whose centre lies past the row's crossing of
+// a triangle (crossings beyond the box's end are dropped: they change no
+// voxel of it). The rows' rays and crossings are those of the whole grid, so
+// a box's mask is the grid's mask cut to the box bit for bit.
+template <class Toggle>
+void scan_crossings(const CubeSphere& m, const double* x, const VolumeView& vol, const int64_t lo[3],
+                    const int64_t n[3], Toggle&& toggle) {
+  for (uint32_t f = 0; f < m.nfaces; ++f) {
+    uint32_t tri[6];
+    const int nt = face_triangles(m, f, tri, x);
+    for (int t = 0; t < nt; ++t) {
+      double p[3][3];
+      const uint32_t id[3] = {tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]};
+      for (int c = 0; c < 3; ++c) vol.world_to_index(x + 3 * size_t(id[c]), p[c]);
+      double mnj = p[0][1], mxj = p[0][1], mnk = p[0][2], mxk = p[0][2];
+      for (int c = 1; c < 3; ++c) {
+        mnj = std::fmin(mnj, p[c][1]); mxj = std::fmax(mxj, p[c][1]);
+        mnk = std::fmin(mnk, p[c][2]); mxk = std::fmax(mxk, p[c][2]);
+      }
+      int64_t j0, j1, k0, k1;
+      centre_range(mnj - double(lo[1]), mxj - double(lo[1]), kDj, n[1], &j0, &j1);
+      centre_range(mnk - double(lo[2]), mxk - double(lo[2]), kDk, n[2], &k0, &k1);
+      for (int64_t kb = k0; kb <= k1; ++kb)
+        for (int64_t jb = j0; jb <= j1; ++jb) {
+          const int64_t j = jb + lo[1], k = kb + lo[2];
+          const double pj = double(j) + kDj, pk = double(k) + kDk;
+          const double w0 = edge_fn(p[1], id[1], p[2], id[2], pj, pk);
+          const double w1 = edge_fn(p[2], id[2], p[0], id[0], pj, pk);
+          const double w2 = edge_fn(p[0], id[0], p[1], id[1], pj, pk);
+          const bool inside = (w0 > 0 && w1 > 0 && w2 > 0) || (w0 < 0 && w1 < 0 && w2 < 0);
+          if (!inside) continue;
+          const double sum = w0 + w1 + w2;
+          const double xi = (w0 * p[0][0] + w1 * p[1][0] + w2 * p[2][0]) / sum;
+          // Voxel centres strictly past the crossing change state.
+          double first = std::floor(xi) + 1.0;
+          if (first < double(lo[0])) first = double(lo[0]);
+          if (!(first < double(lo[0] + n[0]))) continue;
+          toggle(int64_t(first) - lo[0], jb, kb);
+        }
+    }
+  }
+}
+
 }  // namespace
 
 void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol, uint8_t* mask,
@@ -53,44 +98,14 @@ void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol,
       for (int64_t i = 0; i < D[0]; ++i) mask[i * s[0] + j * s[1] + k * s[2]] = 0;
 
   int64_t jlo = D[1], jhi = -1, klo = D[2], khi = -1;
-  for (uint32_t f = 0; f < m.nfaces; ++f) {
-    uint32_t tri[6];
-    const int nt = face_triangles(m, f, tri, x);
-    for (int t = 0; t < nt; ++t) {
-      double p[3][3];
-      const uint32_t id[3] = {tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]};
-      for (int c = 0; c < 3; ++c) vol.world_to_index(x + 3 * size_t(id[c]), p[c]);
-      double mnj = p[0][1], mxj = p[0][1], mnk = p[0][2], mxk = p[0][2];
-      for (int c = 1; c < 3; ++c) {
-        mnj = std::fmin(mnj, p[c][1]); mxj = std::fmax(mxj, p[c][1]);
-        mnk = std::fmin(mnk, p[c][2]); mxk = std::fmax(mxk, p[c][2]);
-      }
-      int64_t j0, j1, k0, k1;
-      centre_range(mnj, mxj, kDj, D[1], &j0, &j1);
-      centre_range(mnk, mxk, kDk, D[2], &k0, &k1);
-      for (int64_t k = k0; k <= k1; ++k)
-        for (int64_t j = j0; j <= j1; ++j) {
-          const double pj = double(j) + kDj, pk = double(k) + kDk;
-          const double w0 = edge_fn(p[1], id[1], p[2], id[2], pj, pk);
-          const double w1 = edge_fn(p[2], id[2], p[0], id[0], pj, pk);
-          const double w2 = edge_fn(p[0], id[0], p[1], id[1], pj, pk);
-          const bool inside = (w0 > 0 && w1 > 0 && w2 > 0) || (w0 < 0 && w1 < 0 && w2 < 0);
-          if (!inside) continue;
-          const double sum = w0 + w1 + w2;
-          const double xi = (w0 * p[0][0] + w1 * p[1][0] + w2 * p[2][0]) / sum;
-          // Voxel centres strictly past the crossing change state.
-          double first = std::floor(xi) + 1.0;
-          if (first < 0) first = 0;
-          if (!(first < double(D[0]))) continue;
-          uint8_t& cell = mask[int64_t(first) * s[0] + j * s[1] + k * s[2]];
-          cell ^= 1;
-          if (j < jlo) jlo = j;
-          if (j > jhi) jhi = j;
-          if (k < klo) klo = k;
-          if (k > khi) khi = k;
-        }
-    }
-  }
+  const int64_t zero[3] = {0, 0, 0};
+  scan_crossings(m, x, vol, zero, D, [&](int64_t i, int64_t j, int64_t k) {
+    mask[i * s[0] + j * s[1] + k * s[2]] ^= 1;
+    if (j < jlo) jlo = j;
+    if (j > jhi) jhi = j;
+    if (k < klo) klo = k;
+    if (k > khi) khi = k;
+  });
   for (int64_t k = klo; k <= khi; ++k)
     for (int64_t j = jlo; j <= jhi; ++j) {
       uint8_t inside = 0;
@@ -100,6 +115,24 @@ void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol,
         cell = inside;
       }
     }
+}
+
+int64_t rasterize_mesh_box(const CubeSphere& m, const double* x, const VolumeView& vol, const int64_t lo[3],
+                           const int64_t n[3], uint8_t* mask) {
+  const int64_t n01 = n[0] * n[1], count = n01 * n[2];
+  for (int64_t q = 0; q < count; ++q) mask[q] = 0;
+  scan_crossings(m, x, vol, lo, n, [&](int64_t i, int64_t j, int64_t k) { mask[i + n[0] * j + n01 * k] ^= 1; });
+  int64_t inside_count = 0;
+  for (int64_t r = 0; r < n[1] * n[2]; ++r) {
+    uint8_t inside = 0;
+    uint8_t* row = mask + n[0] * r;
+    for (int64_t i = 0; i < n[0]; ++i) {
+      inside ^= row[i];
+      row[i] = inside;
+      inside_count += inside;
+    }
+  }
+  return inside_count;
 }
 
 }  // namespace ffseg

@@ -12,4 +12,11 @@ namespace ffseg {
 void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol, uint8_t* mask,
                     const int64_t strides[3]);
 
+// The same mask cut to the box of voxels [lo, lo + n) of the volume grid
+// (lo >= 0, lo + n <= dims), written contiguously (voxel (i, j, k) of the box
+// at mask[i + n0 (j + n1 k)]): equal bit for bit to rasterize_mesh's voxels
+// there. Returns the number of voxels inside.
+int64_t rasterize_mesh_box(const CubeSphere& m, const double* x, const VolumeView& vol, const int64_t lo[3],
+                           const int64_t n[3], uint8_t* mask);
+
 }  // namespace ffseg

@@ -277,7 +277,8 @@ constexpr double kAnchor = 1e-3;
 }  // namespace
 
 void positional_terms(uint32_t nv, const double* x, const double* d, const uint8_t* has, double alpha,
-                      double lambda_p, double* target, double* w, double* scratch) {
+                      double lambda_p, double* target, double* w, double* scratch, const uint8_t* border,
+                      double border_weight) {
   double dsum = 0;
   uint32_t dcount = 0;
   for (uint32_t v = 0; v < nv; ++v) {
@@ -298,7 +299,7 @@ void positional_terms(uint32_t nv, const double* x, const double* d, const uint8
     double wv = lambda_p * kAnchor;
     if (has[v]) {
       const double rel = dmean > 0 ? scratch[v] / dmean : 1.0;
-      wv += lambda_p * (rel > kWeightFloor ? rel : kWeightFloor);
+      wv += border && border[v] ? lambda_p * border_weight : lambda_p * (rel > kWeightFloor ? rel : kWeightFloor);
     }
     w[v] = wv;
   }

@@ -62,7 +62,11 @@ void laplacian_rhs(const CubeSphere& m, double lambda_l, double lambda_u, const 
 // vertex the two pull towards (their weighted mean), w the sum of the two
 // weights; x: current positions u, d: displacements, 3 per vertex.
 // scratch: nv doubles.
+// border (optional, several objects: thesis 6.3): a border vertex with a
+// displacement is weighted lambda_p border_weight instead, so that the
+// Laplacian terms barely move it from its target.
 void positional_terms(uint32_t nv, const double* x, const double* d, const uint8_t* has, double alpha,
-                      double lambda_p, double* target, double* w, double* scratch);
+                      double lambda_p, double* target, double* w, double* scratch, const uint8_t* border = nullptr,
+                      double border_weight = 0);
 
 }  // namespace ffseg

@@ -46,9 +46,9 @@ Balls ball_grid(int nx, int ny, int nz, int count, double r) {
 void grow_all(int nx, int ny, int nz, int count) {
   const double R = 6.5;
   const Balls b = ball_grid(nx, ny, nz, count, R);
-  // Binary targets use no grey-level crop: a small bound keeps 64 objects'
-  // workspace small.
-  ffseg_test::EngineBox eb(uint32_t(count), 8, int64_t(1) << 12);
+  // The bound sizes each object's bounding region (thesis 6.2): a ball's box
+  // grown by the 10 mm region width is 33^3 voxels at most.
+  ffseg_test::EngineBox eb(uint32_t(count), 8, int64_t(1) << 16);
   REQUIRE(eb.e != nullptr);
   const double A[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   ffseg_volume v = ffseg_test::make_volume(b.mask.data(), FFSEG_U8, b.dims, A);

@@ -29,16 +29,21 @@ size_t workspace(uint32_t n, uint32_t objects, uint32_t target_mode) {
 TEST_CASE("workspace: pinned sizes of a few configurations (default max_roi_voxels = 2^22)") {
   // PINNED. These byte counts are the memory a caller must hand over; a change
   // to any of them must be deliberate (say why in the commit, update the
-  // number here and in BENCHMARKS/README if quoted). Measured at 0.2.0 (with the C API's 128-byte workspace guard):
-  //   binary n = 12, 8 objects:     2 442 304 B (  2.3 MiB; 147 473 472 B before
-  //                                 a binary-only configuration existed)
-  //   intensity n = 12, 1 object:  20 121 536 B ( 19.2 MiB)
-  //   intensity n = 33, 1 object:  38 716 544 B ( 36.9 MiB)
-  //   binary n = 33, 1 object:     20 587 648 B ( 19.6 MiB; the envelope factor dominates)
-  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 2442304u);
-  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20121536u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38716544u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20587648u);
+  // number here and in BENCHMARKS/README if quoted). Measured at 0.2.0 plus
+  // the bounding regions of several objects (thesis chapter 6), with the C
+  // API's 128-byte workspace guard:
+  //   binary n = 12, 8 objects:   228 942 912 B (218.3 MiB: 2 442 304 B before the
+  //                                 regions, which take 22 bytes per max_roi_voxels
+  //                                 voxel for the shared fast marching and 4 per
+  //                                 object for its arrival times)
+  //   intensity n = 12, 1 object:  20 121 792 B ( 19.2 MiB; one object has no
+  //                                 region, 256 B of bookkeeping)
+  //   intensity n = 33, 1 object:  38 716 800 B ( 36.9 MiB)
+  //   binary n = 33, 1 object:     20 587 904 B ( 19.6 MiB; the envelope factor dominates)
+  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 228942912u);
+  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20121792u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38716800u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20587904u);
 }
 
 TEST_CASE("workspace: grey-level buffers are per object and only in intensity configurations") {
@@ -152,4 +157,27 @@ TEST_CASE("workspace: a binary-only engine is exact, refuses grey-level targets 
   CHECK(mean_r == doctest::Approx(5.0).epsilon(0.1));  // grew from 2 mm onto the 5 mm ball
   ffseg_destroy(e);
   std::free(ws);
+}
+
+TEST_CASE("workspace: several objects reserve their bounding regions from max_roi_voxels, exactly") {
+  // Per voxel of max_roi_voxels: the shared fast marching (float time, state
+  // byte, heap slot, 8-byte heap entry, float speed) and seed byte, 22 bytes,
+  // and each object's float arrival times. One object has no region.
+  auto bytes = [](uint32_t objects, int64_t roi) {
+    ffseg_config c;
+    ffseg_config_init_default(&c);
+    c.mesh_resolution = 12;
+    c.max_objects = objects;
+    c.target_mode = FFSEG_TARGET_BINARY;
+    c.max_roi_voxels = roi;
+    size_t b = 0;
+    REQUIRE(ffseg_workspace_size(&c, &b) == FFSEG_OK);
+    return b;
+  };
+  const int64_t r1 = int64_t(1) << 16, r2 = int64_t(1) << 18;
+  for (uint32_t objects : {2u, 8u, 64u}) {
+    CAPTURE(objects);
+    CHECK(bytes(objects, r2) - bytes(objects, r1) == size_t(22 + 4 * objects) * size_t(r2 - r1));
+  }
+  CHECK(bytes(1, r2) == bytes(1, r1));
 }

@@ -279,7 +279,7 @@ std::string world_extent(const ffseg_tools::NiftiImage& img) {
 
 const char* kStageNames[FFSEG_STAGE_COUNT] = {"search",   "flips",    "diffusion", "intersection",
                                               "assembly", "factor",   "solve",     "features",
-                                              "guard"};
+                                              "guard",    "regions"};
 
 }  // namespace
 

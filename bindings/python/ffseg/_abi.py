@@ -27,7 +27,7 @@ TARGET_MODES = {"binary": TARGET_BINARY, "intensity": TARGET_INTENSITY}
 U8, I16, U16, I32, F32, F64 = 1, 2, 3, 4, 5, 6
 
 STAGE_NAMES = ("search", "flips", "diffusion", "intersection", "assembly",
-               "factor", "solve", "features", "guard")
+               "factor", "solve", "features", "guard", "regions")
 STAGE_COUNT = len(STAGE_NAMES)
 REPORT_OBJECTS = 16
 

@@ -12,7 +12,7 @@ use std::os::raw::c_char;
 pub type ffseg_status = i32;
 
 pub const FFSEG_VERSION_MAJOR: u32 = 0;
-pub const FFSEG_VERSION_MINOR: u32 = 2;
+pub const FFSEG_VERSION_MINOR: u32 = 3;
 pub const FFSEG_VERSION_PATCH: u32 = 0;
 pub const FFSEG_VERSION_NUMBER: u32 =
     FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH;
@@ -56,7 +56,8 @@ pub const FFSEG_STAGE_FACTOR: usize = 5;
 pub const FFSEG_STAGE_SOLVE: usize = 6;
 pub const FFSEG_STAGE_FEATURES: usize = 7;
 pub const FFSEG_STAGE_GUARD: usize = 8;
-pub const FFSEG_STAGE_COUNT: usize = 9;
+pub const FFSEG_STAGE_REGIONS: usize = 9;
+pub const FFSEG_STAGE_COUNT: usize = 10;
 pub const FFSEG_REPORT_OBJECTS: usize = 16;
 
 /// The engine: opaque, it lives inside the caller's workspace.

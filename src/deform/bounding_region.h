@@ -1,0 +1,104 @@
+// Bounding regions of several objects (thesis 6.2, eq. 6.2.1-6.2.11; METHOD.md
+// section 4): each object deforms inside the voxels that its own front
+// reaches first.
+//
+// For object i: the box BB_i is the bounding box of its mesh in volume index
+// space grown by w_i mm (eq. 6.2.6-6.2.11: w_i / h_a voxels along axis a),
+// clipped to the grid. Inside it, fast marching (image/fast_marching.h) solves
+// |grad T_i| S_i = 1 from the voxels whose centres lie inside the mesh (and
+// the voxel nearest to each vertex, so that a mesh thinner than a voxel still
+// has a front), up to the time cap w_i: with S_i <= 1 a front never gets
+// further than w_i mm from the mesh, so the box never cuts it off.
+//
+// Speed S_i (eq. 6.2.2-6.2.3): grey-level targets, the object's posterior
+// against the scene, IntensityModel::posterior() of the smoothed value (the raw
+// value outside the smoothed crop), so a front runs through the object's
+// tissue and crawls through its neighbours'; binary targets, 1 on the
+// non-zero voxels and 0 elsewhere, so an object's region is the part of the
+// non-zero voxels that its front reaches first (two objects in separate
+// blobs never compete; in one blob they split where the fronts meet).
+// Non-finite voxels have speed 0.
+//
+// Ownership (eq. 6.2.5): object i owns voxel x when T_i(x) <= cap_i and no
+// other object's front arrives earlier (ties go to the lower object index,
+// so the regions are disjoint and deterministic). A voxel nobody reaches is
+// background. Only the times are stored (4 bytes per box voxel per object);
+// ownership is decided when asked, from every object's times at x.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "arena.h"
+#include "cubesphere.h"
+#include "fast_marching.h"
+#include "intensity_model.h"
+#include "smoothing.h"
+#include "volume.h"
+
+namespace ffseg {
+
+struct RegionMap {
+  int64_t lo[3] = {0, 0, 0};  // the box's first voxel (volume index space)
+  int64_t n[3] = {0, 0, 0};   // its extent, voxels
+  float cap = 0;              // time cap (mm at unit speed)
+  float* t = nullptr;         // arrival times, box layout i + n0 (j + n1 k); +inf: not reached
+  int64_t reached = 0;        // voxels reached within the cap
+  uint32_t computed_at = 0;   // the engine step that computed it
+  bool valid = false;
+  void carve(Arena& a, int64_t max_voxels);
+  // Arrival time at voxel (i, j, k) of the volume grid; +inf outside the box.
+  float time_at(int64_t i, int64_t j, int64_t k) const {
+    i -= lo[0], j -= lo[1], k -= lo[2];
+    if (i < 0 || j < 0 || k < 0 || i >= n[0] || j >= n[1] || k >= n[2]) return kNotReached;
+    return t[i + n[0] * (j + n[1] * k)];
+  }
+  // Whether the mesh at x (3 per vertex, mm) still lies in the inner part of
+  // the box, at least margin_mm from its faces where the grid goes on.
+  bool holds(const VolumeView& vol, const double* x, uint32_t nv, double margin_mm) const;
+  static constexpr float kNotReached = 3.0e38f;
+};
+
+// What drives a front: the object's intensity model over its smoothed crop,
+// or (model == nullptr) the binary indicator of the volume.
+struct RegionSpeed {
+  const IntensityModel* model = nullptr;
+  const SmoothedRoi* roi = nullptr;
+};
+
+enum class RegionStatus : int { ok = 0, too_large, off_grid };
+
+// Object's region: the box around mesh x grown by width_mm, the front from
+// its inside (seed_mask: scratch of fm.max_voxels() bytes), its times into out.
+RegionStatus compute_region(const CubeSphere& m, const double* x, const VolumeView& vol, const RegionSpeed& speed,
+                            double width_mm, FastMarching& fm, uint8_t* seed_mask, RegionMap& out, char* msg,
+                            size_t msg_len);
+
+// Every object's region at once, for the ownership test: regions[i] for
+// object i < count (invalid ones own nothing and claim nothing).
+struct RegionSet {
+  const RegionMap* regions = nullptr;
+  uint32_t count = 0;
+  static constexpr uint32_t kNobody = 0xFFFFFFFFu;
+  // The object owning voxel (i, j, k), or kNobody.
+  uint32_t owner(int64_t i, int64_t j, int64_t k) const;
+  bool owns(uint32_t object, int64_t i, int64_t j, int64_t k) const;
+  // At index-space point p (nearest voxel centre): kNobody off the grid.
+  uint32_t owner_at(const VolumeView& vol, const double p[3]) const;
+};
+
+// A search's view of the regions (thesis 6.3): a sample that another
+// object owns stops object's ray at the sample before it, and the vertex is
+// a border vertex. Background samples (no front reached them) do not stop a
+// ray: the intensity model or the indicator decides there, as for one object.
+struct RegionLimit {
+  const RegionSet* set = nullptr;
+  const VolumeView* vol = nullptr;
+  uint32_t object = 0;
+  // Whether the sample at index-space point p belongs to another object.
+  bool foreign(const double p[3]) const {
+    const uint32_t o = set->owner_at(*vol, p);
+    return o != object && o != RegionSet::kNobody;
+  }
+};
+
+}  // namespace ffseg

@@ -1,0 +1,278 @@
+// Several objects at once (thesis chapter 6): bounding regions by fast
+// marching, searches that stop at another object's region, and objects that
+// never share a voxel.
+#include <doctest/doctest.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "../../capi/capi_internal.h"  // engine_of()
+#include "engine.h"
+#include "ffseg.h"
+#include "support/mesh_check.h"
+#include "rasterize.h"
+#include "support/sphere_box.h"
+#include "test_util.h"
+
+namespace {
+
+const double kIdentity[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+
+// Crossing triangle pairs between two closed meshes: the two as one soup,
+// less what each has on its own.
+size_t crossings_between(const std::vector<float>& xa, const std::vector<uint32_t>& ta, const std::vector<float>& xb,
+                         const std::vector<uint32_t>& tb) {
+  std::vector<float> x = xa;
+  x.insert(x.end(), xb.begin(), xb.end());
+  std::vector<uint32_t> t = ta;
+  const uint32_t off = uint32_t(xa.size() / 3);
+  for (uint32_t v : tb) t.push_back(v + off);
+  auto count = [](const std::vector<float>& p, const std::vector<uint32_t>& q) {
+    const ffseg_test::SelfIntersectionReport r = ffseg_test::check_self_intersections(p.data(), p.size() / 3, q.data(), q.size() / 3);
+    return r.disjoint_pairs + r.shared_vertex_pairs;
+  };
+  return count(x, t) - count(xa, ta) - count(xb, tb);
+}
+
+std::vector<uint8_t> mask_of(ffseg_engine* e, uint32_t object, const int64_t dims[3]) {
+  std::vector<uint8_t> m(size_t(dims[0] * dims[1] * dims[2]));
+  REQUIRE(ffseg_rasterize(e, object, m.data(), nullptr) == FFSEG_OK);
+  return m;
+}
+
+// A bar of non-zero voxels 50 x 16 x 16 mm in a 70 x 30 x 30 grid (1 mm).
+struct Bar {
+  int64_t dims[3] = {70, 30, 30};
+  std::vector<uint8_t> v;
+  Bar() : v(size_t(70 * 30 * 30), 0) {
+    for (int64_t k = 7; k < 23; ++k)
+      for (int64_t j = 7; j < 23; ++j)
+        for (int64_t i = 10; i < 60; ++i) v[size_t((k * 30 + j) * 70 + i)] = 1;
+  }
+  size_t count() const {
+    size_t c = 0;
+    for (uint8_t x : v) c += x;
+    return c;
+  }
+};
+
+struct Run {
+  ffseg_status last = FFSEG_OK;
+  int steps = 0;
+  uint32_t max_border[2] = {0, 0};
+  size_t crossings = 0, shared_voxels = 0, self = 0;
+};
+
+// Two spheres in the bar, grown together in one engine; every step checked.
+Run grow_pair(const Bar& bar, const double ca[3], const double cb[3], double r) {
+  Run run;
+  ffseg_test::EngineBox eb(2, 12, int64_t(1) << 18);
+  REQUIRE(eb.e != nullptr);
+  ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
+  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  REQUIRE(ffseg_init_sphere(eb.e, 0, ca, r) == FFSEG_OK);
+  REQUIRE(ffseg_init_sphere(eb.e, 1, cb, r) == FFSEG_OK);
+  ffseg_test::MeshWatch wa, wb;
+  while (run.last == FFSEG_OK && run.steps < 150) {
+    ffseg_step_info info;
+    info.struct_size = sizeof info;
+    run.last = ffseg_step(eb.e, &info);
+    ++run.steps;
+    if (run.last != FFSEG_OK && run.last != FFSEG_CONVERGED) break;
+    for (int o = 0; o < 2; ++o)
+      if (info.border_vertices[o] > run.max_border[o]) run.max_border[o] = info.border_vertices[o];
+    REQUIRE(wa.look(eb.e, 0));
+    REQUIRE(wb.look(eb.e, 1));
+    run.crossings += crossings_between(wa.xyz, wa.tris, wb.xyz, wb.tris);
+    const std::vector<uint8_t> ma = mask_of(eb.e, 0, bar.dims), mb = mask_of(eb.e, 1, bar.dims);
+    for (size_t q = 0; q < ma.size(); ++q) run.shared_voxels += ma[q] && mb[q];
+  }
+  run.self = wa.intersections + wb.intersections + wa.flips + wb.flips;
+  return run;
+}
+
+}  // namespace
+
+TEST_CASE("regions: rasterising into a box gives the grid's mask cut to the box") {
+  ffseg_test::SphereBox sb(12);
+  std::vector<double> x = sb.sphere(7.3);
+  for (size_t q = 0; q < x.size(); q += 3) {
+    x[q] += 12.4;
+    x[q + 1] += 10.1;
+    x[q + 2] += 9.7;
+  }
+  const int64_t dims[3] = {26, 22, 20};
+  std::vector<uint8_t> vox(size_t(dims[0] * dims[1] * dims[2]));
+  ffseg::VolumeDesc d{};
+  d.type = FFSEG_U8;
+  d.data = vox.data();
+  d.data_bytes = vox.size();
+  for (int a = 0; a < 3; ++a) d.dims[a] = dims[a];
+  d.strides[0] = 1;
+  d.strides[1] = dims[0];
+  d.strides[2] = dims[0] * dims[1];
+  for (int q = 0; q < 16; ++q) d.index_to_world[q] = kIdentity[q];
+  d.slope = 1;
+  ffseg::VolumeView view;
+  char msg[256];
+  REQUIRE(view.assign(d, msg, sizeof msg));
+  std::vector<uint8_t> full(vox.size());
+  ffseg::rasterize_mesh(sb.m, x.data(), view, full.data(), nullptr);
+  size_t inside = 0;
+  for (uint8_t b : full) inside += b;
+  CHECK(inside > 1000);  // 4/3 pi 7.3^3 = 1630
+  // Boxes that cut the sphere, hold it, and start past it.
+  const int64_t boxes[][6] = {{0, 0, 0, 26, 22, 20}, {5, 3, 4, 10, 9, 8}, {12, 10, 9, 14, 12, 11}, {20, 0, 0, 6, 22, 20}};
+  for (const auto& b : boxes) {
+    const int64_t lo[3] = {b[0], b[1], b[2]}, n[3] = {b[3], b[4], b[5]};
+    std::vector<uint8_t> box(size_t(n[0] * n[1] * n[2]), 7);
+    const int64_t got = ffseg::rasterize_mesh_box(sb.m, x.data(), view, lo, n, box.data());
+    int64_t want = 0;
+    bool same = true;
+    for (int64_t k = 0; k < n[2]; ++k)
+      for (int64_t j = 0; j < n[1]; ++j)
+        for (int64_t i = 0; i < n[0]; ++i) {
+          const uint8_t f = full[size_t(((k + lo[2]) * dims[1] + j + lo[1]) * dims[0] + i + lo[0])];
+          want += f;
+          same = same && box[size_t((k * n[1] + j) * n[0] + i)] == f;
+        }
+    CAPTURE(lo[0]);
+    CHECK(same);
+    CHECK(got == want);
+  }
+}
+
+TEST_CASE("regions: two objects in one bar split it where their fronts meet, never sharing a voxel") {
+  const Bar bar;
+  // Off-centre so that the fronts meet away from the middle: object 0 is
+  // nearer its end of the bar, so its front reaches the middle first.
+  const double ca[3] = {22.3, 15.1, 14.8}, cb[3] = {44.6, 14.9, 15.2};
+  const Run run = grow_pair(bar, ca, cb, 3.0);
+  MESSAGE("steps ", run.steps, " borders ", run.max_border[0], " ", run.max_border[1], " crossings ", run.crossings);
+  CHECK(run.last == FFSEG_CONVERGED);
+  CHECK(run.crossings == 0);
+  CHECK(run.shared_voxels == 0);
+  CHECK(run.self == 0);
+  // Each met the other's region: border vertices on both.
+  CHECK(run.max_border[0] > 0);
+  CHECK(run.max_border[1] > 0);
+}
+
+TEST_CASE("regions: alone, each of the two objects fills the whole bar (what the regions prevent)") {
+  // The same spheres, one engine each: both meshes take the whole bar, so
+  // their masks overlap in most of it. This is what the test above guards.
+  const Bar bar;
+  const double centres[2][3] = {{22.3, 15.1, 14.8}, {44.6, 14.9, 15.2}};
+  std::vector<uint8_t> masks[2];
+  for (int o = 0; o < 2; ++o) {
+    ffseg_test::EngineBox eb(1, 12);
+    REQUIRE(eb.e != nullptr);
+    ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
+    REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+    REQUIRE(ffseg_init_sphere(eb.e, 0, centres[o], 3.0) == FFSEG_OK);
+    ffseg_status st = FFSEG_OK;
+    for (int s = 0; s < 150 && st == FFSEG_OK; ++s) st = ffseg_step(eb.e, nullptr);
+    CHECK(st == FFSEG_CONVERGED);
+    masks[o] = mask_of(eb.e, 0, bar.dims);
+  }
+  size_t shared = 0;
+  for (size_t q = 0; q < masks[0].size(); ++q) shared += masks[0][q] && masks[1][q];
+  CHECK(double(shared) > 0.5 * double(bar.count()));
+}
+
+namespace {
+
+// Thesis fig. 6.5 as a phantom: a CT-like i16 volume (1 mm), an organ of 60 HU
+// (a ball of radius 14 mm) touching a vessel of 65 HU (a cylinder of radius
+// 4 mm along x through the whole volume, its axis 17 mm above the organ's
+// centre, so the two overlap by 1 mm), fat of -60 HU around, Gaussian noise
+// of sigma 12 HU. Labels: 1 organ, 2 vessel (the vessel wins where they meet).
+struct Leak {
+  int64_t dims[3] = {96, 64, 72};
+  double organ[3] = {48.2, 32.1, 28.3};
+  double vessel_y = 32.1, vessel_z = 28.3 + 17.0;
+  std::vector<int16_t> v;
+  std::vector<uint8_t> label;
+  Leak() {
+    const size_t n = size_t(dims[0] * dims[1] * dims[2]);
+    v.resize(n);
+    label.resize(n);
+    uint64_t s = 0x9E3779B97F4A7C15ull;
+    auto uniform = [&]() {
+      s ^= s << 13, s ^= s >> 7, s ^= s << 17;
+      return (double(s >> 11) + 0.5) / 9007199254740992.0;
+    };
+    for (int64_t k = 0; k < dims[2]; ++k)
+      for (int64_t j = 0; j < dims[1]; ++j)
+        for (int64_t i = 0; i < dims[0]; ++i) {
+          const size_t q = size_t((k * dims[1] + j) * dims[0] + i);
+          const double dx = i - organ[0], dy = j - organ[1], dz = k - organ[2];
+          const double ry = j - vessel_y, rz = k - vessel_z;
+          uint8_t l = 0;
+          double hu = -60;
+          if (ry * ry + rz * rz <= 16.0) l = 2, hu = 65;
+          else if (dx * dx + dy * dy + dz * dz <= 196.0) l = 1, hu = 60;
+          const double g = std::sqrt(-2 * std::log(uniform())) * std::cos(6.283185307179586 * uniform());
+          v[q] = int16_t(std::lround(hu + 12 * g));
+          label[q] = l;
+        }
+  }
+};
+
+struct LeakResult {
+  double organ_dice = 0;
+  double vessel_taken = 0;  // share of the vessel's voxels inside the organ's mesh
+  size_t shared = 0;
+  ffseg_status last = FFSEG_OK;
+};
+
+LeakResult segment_leak(const Leak& ph, bool with_vessel) {
+  ffseg_test::EngineBox eb(with_vessel ? 2 : 1, 12);
+  REQUIRE(eb.e != nullptr);
+  ffseg_params p;
+  ffseg_params_init_default(&p);
+  p.target_mode = FFSEG_TARGET_INTENSITY;
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  ffseg_volume vol = ffseg_test::make_volume(ph.v.data(), FFSEG_I16, ph.dims, kIdentity);
+  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  REQUIRE(ffseg_init_sphere(eb.e, 0, ph.organ, 6.0) == FFSEG_OK);
+  if (with_vessel) {
+    const double c[3] = {ph.organ[0], ph.vessel_y, ph.vessel_z + 0.5};
+    REQUIRE(ffseg_init_sphere(eb.e, 1, c, 2.5) == FFSEG_OK);
+  }
+  LeakResult res;
+  for (int s = 0; s < 150 && res.last == FFSEG_OK; ++s) res.last = ffseg_step(eb.e, nullptr);
+  const std::vector<uint8_t> organ = mask_of(eb.e, 0, ph.dims);
+  std::vector<uint8_t> vessel;
+  if (with_vessel) vessel = mask_of(eb.e, 1, ph.dims);
+  size_t a = 0, b = 0, ab = 0, vessel_voxels = 0, taken = 0;
+  for (size_t q = 0; q < organ.size(); ++q) {
+    a += organ[q];
+    b += ph.label[q] == 1;
+    ab += organ[q] && ph.label[q] == 1;
+    vessel_voxels += ph.label[q] == 2;
+    taken += organ[q] && ph.label[q] == 2;
+    if (with_vessel) res.shared += organ[q] && vessel[q];
+  }
+  res.organ_dice = 2.0 * double(ab) / double(a + b);
+  res.vessel_taken = double(taken) / double(vessel_voxels);
+  return res;
+}
+
+}  // namespace
+
+TEST_CASE("regions: the thesis' leakage case (fig. 6.5): alone the organ leaks along the vessel, with it it does not") {
+  const Leak ph;
+  const LeakResult alone = segment_leak(ph, false);
+  MESSAGE("alone: organ Dice ", alone.organ_dice, ", vessel taken ", alone.vessel_taken);
+  CHECK(alone.vessel_taken > 0.10);  // the leak the regions must stop
+  const LeakResult both = segment_leak(ph, true);
+  MESSAGE("with the vessel: organ Dice ", both.organ_dice, ", vessel taken ", both.vessel_taken, ", shared voxels ",
+          both.shared);
+  CHECK(both.last == FFSEG_CONVERGED);
+  CHECK(both.vessel_taken <= 0.02);
+  CHECK(both.organ_dice >= 0.90);
+  CHECK(both.shared == 0);
+}
