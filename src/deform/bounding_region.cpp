@@ -44,28 +44,58 @@ bool nearest_voxel(const VolumeView& vol, const double p[3], int64_t q[3]) {
   return true;
 }
 
+constexpr int kSpeedTable = 4096;
+
 // The speed image over the box (fm's layout), eq. 6.2.2-6.2.3.
 void fill_speed(const VolumeView& vol, const RegionSpeed& sp, const int64_t lo[3], const int64_t n[3], float* s) {
-  const SmoothedRoi* roi = sp.model ? sp.roi : nullptr;
+  if (sp.model == nullptr) {
+    int64_t q = 0;
+    for (int64_t k = 0; k < n[2]; ++k)
+      for (int64_t j = 0; j < n[1]; ++j)
+        vol.for_each_in_row(lo[0], lo[1] + j, lo[2] + k, 0, n[0], [&](int64_t, double v) {
+          s[q++] = (std::isfinite(v) && v != 0) ? 1.0f : 0.0f;
+        });
+    return;
+  }
+  const SmoothedRoi* roi = sp.roi;
   const int64_t* glo = roi && roi->valid() ? roi->data_lo() : nullptr;
   const int64_t* ghi = roi && roi->valid() ? roi->data_hi() : nullptr;
+  // The values first (smoothed where the crop has them), into s, and their range.
+  double vmin = INFINITY, vmax = -INFINITY;
   int64_t q = 0;
   for (int64_t k = 0; k < n[2]; ++k)
     for (int64_t j = 0; j < n[1]; ++j) {
       const int64_t gj = lo[1] + j, gk = lo[2] + k;
-      if (sp.model == nullptr) {
-        vol.for_each_in_row(lo[0], gj, gk, 0, n[0], [&](int64_t, double v) {
-          s[q++] = (std::isfinite(v) && v != 0) ? 1.0f : 0.0f;
-        });
-        continue;
-      }
       const bool row_smoothed = glo && gj >= glo[1] && gj < ghi[1] && gk >= glo[2] && gk < ghi[2];
       vol.for_each_in_row(lo[0], gj, gk, 0, n[0], [&](int64_t t, double raw) {
         const int64_t gi = lo[0] + t;
         const double v = row_smoothed && gi >= glo[0] && gi < ghi[0] ? double(roi->at(gi, gj, gk)) : raw;
-        s[q++] = std::isfinite(v) ? float(sp.model->posterior(v)) : 0.0f;
+        const float f = float(v);
+        s[q++] = f;
+        if (std::isfinite(f)) {
+          vmin = std::fmin(vmin, double(f));
+          vmax = std::fmax(vmax, double(f));
+        }
       });
     }
+  float table[kSpeedTable];
+  const double step = vmax > vmin ? (vmax - vmin) / (kSpeedTable - 1) : 1.0;
+  for (int b = 0; b < kSpeedTable; ++b)
+    table[b] = float(sp.model->posterior_against(vmin + b * step, sp.others, sp.other_count));
+  const double inv = 1.0 / step;
+  for (int64_t p = 0; p < q; ++p) {
+    const float v = s[p];
+    if (!std::isfinite(v)) {
+      s[p] = 0.0f;
+      continue;
+    }
+    const double f = (double(v) - vmin) * inv;
+    int b = int(f);
+    if (b >= kSpeedTable - 1) b = kSpeedTable - 2;
+    if (b < 0) b = 0;
+    const double w = f - b;
+    s[p] = float(table[b] + w * (table[b + 1] - table[b]));
+  }
 }
 
 }  // namespace

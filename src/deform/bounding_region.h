@@ -11,9 +11,13 @@
 // further than w_i mm from the mesh, so the box never cuts it off.
 //
 // Speed S_i (eq. 6.2.2-6.2.3): grey-level targets, the object's posterior
-// against the scene, IntensityModel::posterior() of the smoothed value (the raw
-// value outside the smoothed crop), so a front runs through the object's
-// tissue and crawls through its neighbours'; binary targets, 1 on the
+// against the scene's other classes and the other objects' own classes
+// (IntensityModel::posterior_against()) of the smoothed value (the raw value
+// outside the smoothed crop), so a front runs through the object's tissue and
+// crawls through its neighbours', and two organs of one tissue share it. It
+// is tabulated once per front over the box's range of values (kSpeedTable
+// entries, linear in between): the models' densities are not evaluated per
+// voxel; binary targets, 1 on the
 // non-zero voxels and 0 elsewhere, so an object's region is the part of the
 // non-zero voxels that its front reaches first (two objects in separate
 // blobs never compete; in one blob they split where the fronts meet).
@@ -63,6 +67,9 @@ struct RegionMap {
 struct RegionSpeed {
   const IntensityModel* model = nullptr;
   const SmoothedRoi* roi = nullptr;
+  // The other objects' models, competing in the posterior's denominator.
+  const IntensityModel* const* others = nullptr;
+  uint32_t other_count = 0;
 };
 
 enum class RegionStatus : int { ok = 0, too_large, off_grid };

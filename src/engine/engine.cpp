@@ -54,7 +54,7 @@ void Engine::layout(Arena& a) {
   // Several objects: bounding regions (thesis chapter 6), one front at a
   // time in the shared marcher, each object's times in its own map.
   const bool regions = cfg_.max_objects > 1;
-  if (regions) scratch_.carve_regions(a, cfg_.max_roi_voxels);
+  if (regions) scratch_.carve_regions(a, cfg_.max_roi_voxels, cfg_.max_objects);
   objects_ = a.alloc<Object>(cfg_.max_objects);
   region_maps_ = regions ? a.alloc<RegionMap>(cfg_.max_objects) : nullptr;
   Object probe;  // measuring pass: carve through a throw-away object
@@ -353,6 +353,9 @@ Err Engine::step(StepReport* r) {
 Err Engine::update_regions() {
   const Params& p = params_;
   const double w = p.region_width();
+  uint32_t nmodels = 0;  // every placed object's model competes in the others' speeds
+  for (uint32_t i = 0; i < cfg_.max_objects; ++i)
+    if (objects_[i].placed && objects_[i].model.valid()) scratch_.models[nmodels++] = &objects_[i].model;
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     Object& o = objects_[i];
     if (!o.placed) continue;
@@ -360,7 +363,8 @@ Err Engine::update_regions() {
     const bool stale = !r.valid || (o.active() && (steps_ + 1 - r.computed_at >= p.region_interval ||
                                                    !r.holds(vol_, o.x, mesh_.nv, 0.5 * w)));
     if (!stale) continue;
-    const Err e = compute_object_region(mesh_, vol_, p, o, scratch_, steps_ + 1, msg_, kMsgLen);
+    const Err e = compute_object_region(mesh_, vol_, p, o, scratch_.models, nmodels, scratch_, steps_ + 1, msg_,
+                                        kMsgLen);
     if (e != Err::ok) return e;
   }
   return Err::ok;

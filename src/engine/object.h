@@ -77,8 +77,9 @@ struct StepScratch {
   // crop's rasterised mesh.
   FastMarching fm;
   uint8_t* seed_mask = nullptr;
+  const IntensityModel** models = nullptr;  // max_objects: the models competing in a front's speed
   void carve(Arena& a, const CubeSphere& m);
-  void carve_regions(Arena& a, int64_t max_voxels);
+  void carve_regions(Arena& a, int64_t max_voxels, uint32_t max_objects);
 };
 
 }  // namespace ffseg

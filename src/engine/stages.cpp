@@ -74,17 +74,21 @@ void ObjectStep::carve(Arena& a, uint32_t nv, bool regions) {
   border = regions ? a.alloc<uint8_t>(nv) : nullptr;
 }
 
-void StepScratch::carve_regions(Arena& a, int64_t max_voxels) {
+void StepScratch::carve_regions(Arena& a, int64_t max_voxels, uint32_t max_objects) {
   fm.carve(a, max_voxels, false);
   seed_mask = a.alloc<uint8_t>(max_voxels > 0 ? size_t(max_voxels) : 0);
+  models = a.alloc<const IntensityModel*>(max_objects);
 }
 
-Err compute_object_region(const CubeSphere& m, const VolumeView& vol, const Params& p, Object& o, StepScratch& s,
-                          uint32_t step, char* msg, size_t msg_len) {
+Err compute_object_region(const CubeSphere& m, const VolumeView& vol, const Params& p, Object& o,
+                          const IntensityModel* const* models, uint32_t model_count, StepScratch& s, uint32_t step,
+                          char* msg, size_t msg_len) {
   RegionSpeed speed;
   if (p.target_mode == TargetMode::intensity) {
     speed.model = &o.model;
     speed.roi = &o.roi;
+    speed.others = models;
+    speed.other_count = model_count;
   }
   const RegionStatus r =
       compute_region(m, o.x, vol, speed, p.region_width(), s.fm, s.seed_mask, *o.region, msg, msg_len);

@@ -268,12 +268,14 @@ double IntensityModel::g_direct(double v) const {
   return g < 1 ? g : 1;
 }
 
-double IntensityModel::posterior(double v) const {
+double IntensityModel::posterior_against(double v, const IntensityModel* const* others, uint32_t count) const {
   if (m_ == 0 || !(v == v)) return 0;
   const double a = sm_ > 0 ? obj_weight_ : 1.0;  // without competitors the object is the whole scene
   const double own = a * density(v);
   double rival = 0;
   for (uint32_t c = 0; c < sm_; ++c) rival += weighted_density(scene_[c], v);
+  for (uint32_t o = 0; o < count; ++o)
+    if (others[o] != this && others[o]->valid()) rival += others[o]->own_density(v);
   const double outlier = a * kOutlierFraction * peak_;
   const double den = own + rival + outlier;
   return den > 0 ? own / den : 0.0;

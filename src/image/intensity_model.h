@@ -141,7 +141,14 @@ class IntensityModel {
   // class at kOutlierFraction of the object's peak density, so that a value
   // no class explains (far from every mean) reads near 0 instead of 0 / 0.
   // Without competitors it is 1 wherever the object explains v well.
-  double posterior(double v) const;
+  double posterior(double v) const { return posterior_against(v, nullptr, 0); }
+  // The same with other objects' models in the denominator as well (thesis
+  // eq. 6.2.3 with every organ's class in P(I)): each weighs in with its
+  // own classes' scene fraction, so a value that another organ explains
+  // better slows this object's front.
+  double posterior_against(double v, const IntensityModel* const* others, uint32_t count) const;
+  // Scene fraction times density of the object's own classes at v.
+  double own_density(double v) const { return (sm_ > 0 ? obj_weight_ : 1.0) * density(v); }
   static constexpr double kOutlierFraction = 1e-3;
   // The partial-volume level (intensity_search.cpp): the mean of the object
   // component most probable at v (highest a_i f_i(v)).
