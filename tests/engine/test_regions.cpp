@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "../../capi/capi_internal.h"  // engine_of()
@@ -275,4 +276,29 @@ TEST_CASE("regions: the thesis' leakage case (fig. 6.5): alone the organ leaks a
   CHECK(both.vessel_taken <= 0.02);
   CHECK(both.organ_dice >= 0.90);
   CHECK(both.shared == 0);
+}
+
+TEST_CASE("regions: a bounding box over max_roi_voxels is FFSEG_ERR_ROI_TOO_LARGE, naming its size; meshes unchanged") {
+  // Binary targets carve no smoothed crop, so only the regions need the
+  // bound: 2^12 voxels cannot hold a 6 mm sphere's box grown by 10 mm.
+  const Bar bar;
+  ffseg_test::EngineBox eb(2, 8, int64_t(1) << 12);
+  REQUIRE(eb.e != nullptr);
+  ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
+  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  const double ca[3] = {22.3, 15.1, 14.8}, cb[3] = {44.6, 14.9, 15.2};
+  REQUIRE(ffseg_init_sphere(eb.e, 0, ca, 3.0) == FFSEG_OK);
+  // One object: no region, the bound is not needed.
+  CHECK(ffseg_step(eb.e, nullptr) == FFSEG_OK);
+  std::vector<float> before, after;
+  std::vector<uint32_t> tris;
+  REQUIRE(ffseg_test::extract(eb.e, 0, &before, &tris));
+  REQUIRE(ffseg_init_sphere(eb.e, 1, cb, 3.0) == FFSEG_OK);
+  CHECK(ffseg_step(eb.e, nullptr) == FFSEG_ERR_ROI_TOO_LARGE);
+  const std::string msg = ffseg_last_error(eb.e);
+  CAPTURE(msg);
+  CHECK(msg.find("max_roi_voxels = 4096") != std::string::npos);
+  CHECK(msg.find("voxels") != std::string::npos);
+  REQUIRE(ffseg_test::extract(eb.e, 0, &after, &tris));
+  CHECK(before == after);
 }
