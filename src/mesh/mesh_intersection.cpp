@@ -3,6 +3,7 @@
 #include <cmath>
 #include <utility>
 
+#include "triangle_crossing.h"
 #include "triangulation.h"
 
 namespace ffseg {
@@ -49,25 +50,6 @@ void TriangleScratch::carve(Arena& a, const CubeSphere& m) {
 
 namespace {
 
-// Six times the signed volume of (a, b, c, d). Inlined into the pair test,
-// the hot loop of the guard (generic x86-64: no contraction, same rounding).
-inline __attribute__((always_inline)) double orient(const double* a, const double* b, const double* c,
-                                                    const double* d) {
-  const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-  const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-  const double w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
-  return u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
-}
-
-// The open segment pq passes through the interior of triangle t0 t1 t2.
-inline __attribute__((always_inline)) bool segment_crosses(const double* p, const double* q, const double* t0,
-                                                           const double* t1, const double* t2) {
-  const double dp = orient(t0, t1, t2, p), dq = orient(t0, t1, t2, q);
-  if (!((dp > 0 && dq < 0) || (dp < 0 && dq > 0))) return false;
-  const double e0 = orient(p, q, t0, t1), e1 = orient(p, q, t1, t2), e2 = orient(p, q, t2, t0);
-  return (e0 > 0 && e1 > 0 && e2 > 0) || (e0 < 0 && e1 < 0 && e2 < 0);
-}
-
 // Whether p and q lie, beyond doubt, strictly on one side of the plane of
 // the triangle with normal n at o: n . (p - o) and n . (q - o) exceed tol
 // with one sign. tol = 1e-13 D^3, D the largest extent of a box holding the
@@ -106,14 +88,10 @@ bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint
   if (shared == 1) {
     // Only the edges opposite the shared vertex can cross the other triangle
     // away from that vertex.
-    return segment_crosses(A[(sa + 1) % 3], A[(sa + 2) % 3], B[0], B[1], B[2]) ||
-           segment_crosses(B[(sb + 1) % 3], B[(sb + 2) % 3], A[0], A[1], A[2]);
+    return detail::segment_crosses(A[(sa + 1) % 3], A[(sa + 2) % 3], B[0], B[1], B[2]) ||
+           detail::segment_crosses(B[(sb + 1) % 3], B[(sb + 2) % 3], A[0], A[1], A[2]);
   }
-  for (int i = 0; i < 3; ++i) {
-    if (segment_crosses(A[i], A[(i + 1) % 3], B[0], B[1], B[2])) return true;
-    if (segment_crosses(B[i], B[(i + 1) % 3], A[0], A[1], A[2])) return true;
-  }
-  return false;
+  return detail::disjoint_triangles_cross(A, B);
 }
 
 }  // namespace
@@ -127,14 +105,8 @@ void prepare(const double* x, TriangleScratch& s, uint32_t t, double eps) {
   double* lo = s.lo + 3 * size_t(t);
   double* hi = s.hi + 3 * size_t(t);
   const double *p0 = x + 3 * size_t(id[0]), *p1 = x + 3 * size_t(id[1]), *p2 = x + 3 * size_t(id[2]);
-  for (int a = 0; a < 3; ++a) {
-    c[a] = (p0[a] + p1[a] + p2[a]) / 3.0;
-    // Finite positions: these comparisons give fmin/fmax's values (the sign
-    // of a zero aside, which no test reads), without a libm call.
-    const double l01 = p1[a] < p0[a] ? p1[a] : p0[a], h01 = p1[a] > p0[a] ? p1[a] : p0[a];
-    lo[a] = (p2[a] < l01 ? p2[a] : l01) - eps;
-    hi[a] = (p2[a] > h01 ? p2[a] : h01) + eps;
-  }
+  for (int a = 0; a < 3; ++a) c[a] = (p0[a] + p1[a] + p2[a]) / 3.0;
+  detail::triangle_box(p0, p1, p2, eps, lo, hi);
   double r2 = 0;
   for (int k = 0; k < 3; ++k) {
     double d2 = 0;
@@ -160,9 +132,8 @@ struct Pairs {
   uint32_t count = 0;
 
   bool overlap(uint32_t t, uint32_t u) const {
-    const double *lt = s.lo + 3 * size_t(t), *ht = s.hi + 3 * size_t(t);
-    const double *lu = s.lo + 3 * size_t(u), *hu = s.hi + 3 * size_t(u);
-    return !(lu[0] > ht[0] || lt[0] > hu[0] || lu[1] > ht[1] || lt[1] > hu[1] || lu[2] > ht[2] || lt[2] > hu[2]);
+    return detail::boxes_overlap(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t), s.lo + 3 * size_t(u),
+                                 s.hi + 3 * size_t(u));
   }
   // Overlapping boxes share the cell of their intersection's low corner: the
   // one cell where the pair counts.

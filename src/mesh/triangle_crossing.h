@@ -1,0 +1,60 @@
+// The exact-sign primitives of the mesh crossing tests: the orientation of
+// four points, an open segment through a triangle's interior, two triangles
+// with no vertex in common crossing, a triangle's bounding box. The
+// self-intersection test (mesh_intersection) and the contact test between
+// meshes (mesh_contact) decide every pair with these, so one mesh and two
+// meshes are kept apart by the same rule. Internal to the mesh layer.
+#pragma once
+#include <cstdint>
+
+namespace ffseg {
+namespace detail {
+
+// Six times the signed volume of (a, b, c, d). Inlined into the pair tests,
+// the hot loops of the guard (generic x86-64: no contraction, same rounding).
+inline __attribute__((always_inline)) double orient(const double* a, const double* b, const double* c,
+                                                    const double* d) {
+  const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  const double w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+  return u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
+}
+
+// The open segment pq passes through the interior of triangle t0 t1 t2.
+inline __attribute__((always_inline)) bool segment_crosses(const double* p, const double* q, const double* t0,
+                                                           const double* t1, const double* t2) {
+  const double dp = orient(t0, t1, t2, p), dq = orient(t0, t1, t2, q);
+  if (!((dp > 0 && dq < 0) || (dp < 0 && dq > 0))) return false;
+  const double e0 = orient(p, q, t0, t1), e1 = orient(p, q, t1, t2), e2 = orient(p, q, t2, t0);
+  return (e0 > 0 && e1 > 0 && e2 > 0) || (e0 < 0 && e1 < 0 && e2 < 0);
+}
+
+// Triangles A and B (three corners each) with no vertex in common cross: an
+// edge of one passes through the other's interior. Coplanar touching is not
+// a crossing.
+inline bool disjoint_triangles_cross(const double* const A[3], const double* const B[3]) {
+  for (int i = 0; i < 3; ++i) {
+    if (segment_crosses(A[i], A[(i + 1) % 3], B[0], B[1], B[2])) return true;
+    if (segment_crosses(B[i], B[(i + 1) % 3], A[0], A[1], A[2])) return true;
+  }
+  return false;
+}
+
+// The bounding box of triangle p0 p1 p2, widened by eps (3 each in lo, hi).
+// Finite positions: these comparisons give fmin/fmax's values (the sign of a
+// zero aside, which no test reads), without a libm call.
+inline void triangle_box(const double* p0, const double* p1, const double* p2, double eps, double* lo, double* hi) {
+  for (int a = 0; a < 3; ++a) {
+    const double l01 = p1[a] < p0[a] ? p1[a] : p0[a], h01 = p1[a] > p0[a] ? p1[a] : p0[a];
+    lo[a] = (p2[a] < l01 ? p2[a] : l01) - eps;
+    hi[a] = (p2[a] > h01 ? p2[a] : h01) + eps;
+  }
+}
+
+// Closed boxes [la, ha] and [lb, hb] (3 each) overlap.
+inline bool boxes_overlap(const double* la, const double* ha, const double* lb, const double* hb) {
+  return !(lb[0] > ha[0] || la[0] > hb[0] || lb[1] > ha[1] || la[1] > hb[1] || lb[2] > ha[2] || la[2] > hb[2]);
+}
+
+}  // namespace detail
+}  // namespace ffseg
