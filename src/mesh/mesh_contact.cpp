@@ -1,0 +1,306 @@
+#include "mesh_contact.h"
+
+#include <cmath>
+
+#include "triangle_crossing.h"
+#include "triangulation.h"
+
+namespace ffseg {
+
+namespace {
+// At most total / kBigShare + 16 obstacle triangles lie outside the grid
+// (its cell size doubles until they do); a query box over more than
+// kMaxQueryCells cells scans the obstacles' triangles instead.
+constexpr uint32_t kBigShare = 64;
+constexpr double kMaxQueryCells = 64;
+// Ray directions of the parity test: +x tilted by small irrational-looking
+// slopes, so that a ray does not run in a plane of the mesh's symmetry
+// (the cube-sphere's edges lie on great circles through the axes); the next
+// one when a ray meets an edge or a vertex.
+constexpr int kRays = 3;
+constexpr double kSlope[kRays][2] = {{0.0173205081, 0.0223606798}, {-0.0264575131, 0.0141421356},
+                                     {0.0316227766, -0.0244948974}};
+// Vertices of the query mesh tried as the ray origin when the one before
+// lies on the obstacle's surface or all its rays are degenerate.
+constexpr int kOrigins = 8;
+
+inline void vertex_box(const double* x, uint32_t nv, double eps, double* lo, double* hi) {
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = x[a];
+  for (uint32_t v = 1; v < nv; ++v)
+    for (int a = 0; a < 3; ++a) {
+      const double p = x[3 * size_t(v) + a];
+      lo[a] = p < lo[a] ? p : lo[a];
+      hi[a] = p > hi[a] ? p : hi[a];
+    }
+  for (int a = 0; a < 3; ++a) {
+    lo[a] -= eps;
+    hi[a] += eps;
+  }
+}
+
+// Box [la, ha] inside box [lb, hb] (closed).
+inline bool box_inside(const double* la, const double* ha, const double* lb, const double* hb) {
+  return la[0] >= lb[0] && la[1] >= lb[1] && la[2] >= lb[2] && ha[0] <= hb[0] && ha[1] <= hb[1] && ha[2] <= hb[2];
+}
+
+// One ray from p along direction (1, sy, sz): 1 or 0 (the parity of its
+// crossings), -1 when it meets an edge or a vertex of a triangle (cast
+// another), -2 when p lies on the mesh.
+int ray_parity(const double* p, const double* x, const uint32_t* tris, const double* lo, const double* hi, uint32_t nt,
+               double sy, double sz) {
+  double xmax = p[0];
+  for (uint32_t t = 0; t < nt; ++t) xmax = hi[3 * size_t(t)] > xmax ? hi[3 * size_t(t)] : xmax;
+  if (!(xmax > p[0])) return 0;  // nothing ahead: outside
+  // Past every triangle: q lies beyond all boxes, so no triangle holds it.
+  const double L = 2 * (xmax - p[0]) + 1;
+  const double q[3] = {p[0] + L, p[1] + L * sy, p[2] + L * sz};
+  const double ylo = p[1] < q[1] ? p[1] : q[1], yhi = p[1] < q[1] ? q[1] : p[1];
+  const double zlo = p[2] < q[2] ? p[2] : q[2], zhi = p[2] < q[2] ? q[2] : p[2];
+  int parity = 0;
+  for (uint32_t t = 0; t < nt; ++t) {
+    const double *l = lo + 3 * size_t(t), *h = hi + 3 * size_t(t);
+    if (h[0] < p[0] || l[1] > yhi || h[1] < ylo || l[2] > zhi || h[2] < zlo) continue;
+    const uint32_t* id = tris + 3 * size_t(t);
+    const double *t0 = x + 3 * size_t(id[0]), *t1 = x + 3 * size_t(id[1]), *t2 = x + 3 * size_t(id[2]);
+    const double dp = detail::orient(t0, t1, t2, p), dq = detail::orient(t0, t1, t2, q);
+    if ((dp > 0 && dq > 0) || (dp < 0 && dq < 0) || dq == 0) continue;
+    const double e0 = detail::orient(p, q, t0, t1), e1 = detail::orient(p, q, t1, t2), e2 = detail::orient(p, q, t2, t0);
+    const bool pos = e0 >= 0 && e1 >= 0 && e2 >= 0, neg = e0 <= 0 && e1 <= 0 && e2 <= 0;
+    if (!pos && !neg) continue;  // the line misses the closed triangle
+    if (dp == 0) return -2;      // p on the triangle's plane, within it
+    if (e0 == 0 || e1 == 0 || e2 == 0) return -1;
+    parity ^= 1;
+  }
+  return parity;
+}
+
+// Whether some vertex of the mesh at y (nv vertices) lies inside the closed
+// mesh (x, tris, boxes): 1, 0, or -1 when no tried vertex decides (each on
+// the surface or every ray degenerate).
+int vertices_inside(const double* y, uint32_t nv, const double* x, const uint32_t* tris, const double* lo,
+                    const double* hi, uint32_t nt) {
+  for (int o = 0; o < kOrigins; ++o) {
+    const double* p = y + 3 * size_t((uint64_t(o) * nv) / kOrigins);
+    for (int r = 0; r < kRays; ++r) {
+      const int k = ray_parity(p, x, tris, lo, hi, nt, kSlope[r][0], kSlope[r][1]);
+      if (k >= 0) return k;
+      if (k == -2) break;  // on the surface: another origin
+    }
+  }
+  return -1;
+}
+
+// The query mesh's face f split at x and its triangles boxed (once per query).
+inline void prepare_face(const CubeSphere& m, const double* x, ContactScratch& s, uint32_t f) {
+  if (s.qface[f]) return;
+  s.qface[f] = 1;
+  const uint32_t t0 = m.first_triangle(f);
+  uint32_t* tri = s.qtris + 3 * size_t(t0);
+  const int c = face_triangles(m, f, tri, x);
+  for (int i = 0; i < c; ++i) {
+    const uint32_t* id = tri + 3 * i;
+    detail::triangle_box(x + 3 * size_t(id[0]), x + 3 * size_t(id[1]), x + 3 * size_t(id[2]), s.eps,
+                         s.qlo + 3 * size_t(t0 + i), s.qhi + 3 * size_t(t0 + i));
+  }
+}
+
+}  // namespace
+
+void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
+  max_obstacles = max_obst;
+  count = 0;
+  nt = m.triangle_count();
+  const size_t total = size_t(nt) * max_obst;
+  pos = a.alloc<const double*>(max_obst);
+  box = a.alloc<double>(size_t(6) * max_obst);
+  tris = a.alloc<uint32_t>(3 * total);
+  lo = a.alloc<double>(3 * total);
+  hi = a.alloc<double>(3 * total);
+  big_cap = uint32_t(total / kBigShare) + 16;
+  big = a.alloc<uint32_t>(big_cap);
+  grid.carve(a, uint32_t(total));
+  qtris = a.alloc<uint32_t>(size_t(3) * nt);
+  qlo = a.alloc<double>(size_t(3) * nt);
+  qhi = a.alloc<double>(size_t(3) * nt);
+  qface = a.alloc<uint8_t>(m.nfaces);
+  crossed = a.alloc<uint8_t>(max_obst);
+}
+
+void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s) {
+  s.count = count < s.max_obstacles ? count : s.max_obstacles;
+  const uint32_t nt = s.nt;
+  const size_t total = size_t(nt) * s.count;
+  double emean = 0, extent = 0;
+  for (uint32_t k = 0; k < s.count; ++k) {
+    s.pos[k] = xs[k];
+    double* b = s.box + 6 * size_t(k);
+    vertex_box(xs[k], m.nv, 0.0, b, b + 3);
+    for (int a = 0; a < 3; ++a) extent = std::fmax(extent, b[3 + a] - b[a]);
+    uint32_t* tri = s.tris + 3 * size_t(k) * nt;
+    triangulate(m, xs[k], tri);
+    for (uint32_t t = 0; t < nt; ++t) {
+      const uint32_t* id = tri + 3 * size_t(t);
+      const size_t g = 3 * (size_t(k) * nt + t);
+      detail::triangle_box(xs[k] + 3 * size_t(id[0]), xs[k] + 3 * size_t(id[1]), xs[k] + 3 * size_t(id[2]), 0.0,
+                           s.lo + g, s.hi + g);
+      emean += (s.hi[g] - s.lo[g]) + (s.hi[g + 1] - s.lo[g + 1]) + (s.hi[g + 2] - s.lo[g + 2]);
+    }
+  }
+  s.nbig = 0;
+  if (total == 0) return;
+  emean /= 3.0 * double(total);
+  // Candidates: boxes that overlap, each widened by a hair against rounding
+  // (the query mesh's by the same).
+  s.eps = std::isfinite(emean + extent) ? 1e-9 * (emean + extent) : 0.0;
+  for (size_t q = 0; q < 3 * total; ++q) {
+    s.lo[q] -= s.eps;
+    s.hi[q] += s.eps;
+  }
+  for (uint32_t k = 0; k < s.count; ++k)
+    for (int a = 0; a < 3; ++a) {
+      s.box[6 * size_t(k) + a] -= s.eps;
+      s.box[6 * size_t(k) + 3 + a] += s.eps;
+    }
+  double h = 2 * emean + 1e-9 * extent;
+  if (!(h > 0) || !std::isfinite(h)) h = 1;
+  for (;;) {
+    s.grid.set_cell_size(h);
+    s.nbig = 0;
+    bool over = false;
+    for (size_t t = 0; t < total && !over; ++t)
+      if (!s.grid.fits(s.lo + 3 * t, s.hi + 3 * t)) {
+        if (s.nbig == s.big_cap) over = true;
+        else s.big[s.nbig++] = uint32_t(t);
+      }
+    if (!over) break;
+    h *= 2;
+  }
+  s.grid.build(s.lo, s.hi, uint32_t(total),
+               [&](uint32_t t) { return s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t)); });
+}
+
+uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark) {
+  if (s.count == 0) return 0;
+  const uint32_t nt = s.nt;
+  double xlo[3], xhi[3];
+  vertex_box(x, m.nv, s.eps, xlo, xhi);
+  // The zone: a box around every overlap of x's box with an obstacle's; only
+  // x's triangles meeting it can cross.
+  double zlo[3], zhi[3];
+  uint32_t near = 0;
+  for (uint32_t k = 0; k < s.count; ++k) {
+    const double* b = s.box + 6 * size_t(k);
+    s.crossed[k] = 0;
+    if (!detail::boxes_overlap(xlo, xhi, b, b + 3)) continue;
+    for (int a = 0; a < 3; ++a) {
+      const double l = b[a] > xlo[a] ? b[a] : xlo[a], h = b[3 + a] < xhi[a] ? b[3 + a] : xhi[a];
+      zlo[a] = near == 0 || l < zlo[a] ? l : zlo[a];
+      zhi[a] = near == 0 || h > zhi[a] ? h : zhi[a];
+    }
+    ++near;
+  }
+  if (near == 0) return 0;
+  uint32_t count = 0;
+  bool stop = false;
+  // A candidate pair: x's triangle t, obstacle triangle u (boxes overlap).
+  auto test = [&](uint32_t t, uint32_t u) {
+    const uint32_t k = u / nt;
+    const uint32_t* a = s.qtris + 3 * size_t(t);
+    const uint32_t* b = s.tris + 3 * size_t(u);
+    const double* y = s.pos[k];
+    const double* A[3] = {x + 3 * size_t(a[0]), x + 3 * size_t(a[1]), x + 3 * size_t(a[2])};
+    const double* B[3] = {y + 3 * size_t(b[0]), y + 3 * size_t(b[1]), y + 3 * size_t(b[2])};
+    if (!detail::disjoint_triangles_cross(A, B)) return;
+    ++count;
+    s.crossed[k] = 1;
+    if (!mark) {
+      stop = true;
+      return;
+    }
+    mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
+  };
+  for (uint32_t f = 0; f < m.nfaces; ++f) s.qface[f] = 0;
+  for (uint32_t f = 0; f < m.nfaces && !stop; ++f) {
+    const uint32_t* q = m.faces + 4 * size_t(f);
+    const int nq = q[3] == kNone ? 3 : 4;
+    double flo[3], fhi[3];
+    for (int a = 0; a < 3; ++a) flo[a] = fhi[a] = x[3 * size_t(q[0]) + a];
+    for (int i = 1; i < nq; ++i)
+      for (int a = 0; a < 3; ++a) {
+        const double p = x[3 * size_t(q[i]) + a];
+        flo[a] = p < flo[a] ? p : flo[a];
+        fhi[a] = p > fhi[a] ? p : fhi[a];
+      }
+    for (int a = 0; a < 3; ++a) {
+      flo[a] -= s.eps;
+      fhi[a] += s.eps;
+    }
+    if (!detail::boxes_overlap(flo, fhi, zlo, zhi)) continue;
+    prepare_face(m, x, s, f);
+    const uint32_t t0 = m.first_triangle(f);
+    const int c = nq == 4 ? 2 : 1;
+    for (int i = 0; i < c && !stop; ++i) {
+      const uint32_t t = t0 + i;
+      const double *lt = s.qlo + 3 * size_t(t), *ht = s.qhi + 3 * size_t(t);
+      if (!detail::boxes_overlap(lt, ht, zlo, zhi)) continue;
+      if (s.grid.cells(lt, ht) <= kMaxQueryCells) {
+        // Each pair once: in the cell holding the low corner of the two
+        // boxes' intersection (it lies in both boxes' cells).
+        s.grid.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* cell) {
+          if (stop) return;
+          const double* lu = s.lo + 3 * size_t(u);
+          if (!detail::boxes_overlap(lt, ht, lu, s.hi + 3 * size_t(u))) return;
+          for (int a = 0; a < 3; ++a)
+            if (s.grid.cell(lt[a] > lu[a] ? lt[a] : lu[a]) != cell[a]) return;
+          test(t, u);
+        });
+        for (uint32_t j = 0; j < s.nbig && !stop; ++j) {
+          const uint32_t u = s.big[j];
+          if (detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(t, u);
+        }
+      } else {
+        const size_t total = size_t(nt) * s.count;
+        for (size_t u = 0; u < total && !stop; ++u)
+          if (detail::boxes_overlap(lt, ht, s.lo + 3 * u, s.hi + 3 * u)) test(t, uint32_t(u));
+      }
+    }
+  }
+  if (stop) return count;
+  // Containment without crossing: x lies inside obstacle k only if its box
+  // lies in k's, and encloses k only if k's box lies in its own; without a
+  // crossing every vertex of one is on one side of the other, so one vertex
+  // decides.
+  bool all_split = false;
+  for (uint32_t k = 0; k < s.count; ++k) {
+    if (s.crossed[k]) continue;
+    const double* b = s.box + 6 * size_t(k);
+    if (!detail::boxes_overlap(xlo, xhi, b, b + 3)) continue;
+    const size_t g = size_t(k) * nt;
+    bool inside = false;
+    if (box_inside(xlo, xhi, b, b + 3))
+      inside = vertices_inside(x, m.nv, s.pos[k], s.tris + 3 * g, s.lo + 3 * g, s.hi + 3 * g, nt) == 1;
+    if (!inside && box_inside(b, b + 3, xlo, xhi)) {
+      if (!all_split)
+        for (uint32_t f = 0; f < m.nfaces; ++f) prepare_face(m, x, s, f);
+      all_split = true;
+      inside = vertices_inside(s.pos[k], m.nv, x, s.qtris, s.qlo, s.qhi, nt) == 1;
+    }
+    if (!inside) continue;
+    ++count;
+    if (!mark) return count;
+    for (uint32_t v = 0; v < m.nv; ++v) mark[v] = 1;
+  }
+  return count;
+}
+
+bool point_inside_mesh(const double* p, const double* x, const uint32_t* tris, const double* lo, const double* hi,
+                       uint32_t nt) {
+  for (int r = 0; r < kRays; ++r) {
+    const int k = ray_parity(p, x, tris, lo, hi, nt, kSlope[r][0], kSlope[r][1]);
+    if (k >= 0) return k == 1;
+    if (k == -2) return false;
+  }
+  return false;
+}
+
+}  // namespace ffseg

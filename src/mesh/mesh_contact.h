@@ -1,0 +1,69 @@
+// Contact between closed cube-sphere meshes, in workspace memory: the hard
+// no-overlap guarantee of several objects (thesis chapter 6 keeps organs
+// apart by their bounding regions; ffseg makes it certain). Two meshes are
+// in contact when a triangle of one crosses a triangle of the other (an
+// edge of one through the other's interior, the self-intersection test's
+// rule, mesh_intersection.h) or when one encloses the other (no crossing,
+// but a vertex of one inside the other's closed surface, by ray parity).
+//
+// The obstacles (the other objects, fixed while one object's step is
+// guarded) are entered once into a hashed grid over their triangle boxes;
+// each query then costs O(vertices) when the query mesh's bounding box
+// meets no obstacle's, and otherwise grows with the triangles where the
+// boxes overlap. All meshes share one CubeSphere topology (one n).
+#pragma once
+#include <cstdint>
+
+#include "arena.h"
+#include "cubesphere.h"
+#include "spatial_grid.h"
+
+namespace ffseg {
+
+struct ContactScratch {
+  uint32_t max_obstacles = 0, count = 0;
+  uint32_t nt = 0;                    // triangles per mesh
+  const double** pos = nullptr;       // per obstacle: its positions (the caller's, 3 per vertex)
+  double* box = nullptr;              // per obstacle: lo[3], hi[3] of its vertices, widened by eps
+  // Obstacle triangles, id k * nt + t: vertex indices (3 each, within
+  // obstacle k, face_triangles() split at its positions) and boxes.
+  uint32_t* tris = nullptr;
+  double* lo = nullptr;
+  double* hi = nullptr;
+  uint32_t* big = nullptr;            // triangles too wide for the grid's cells
+  uint32_t nbig = 0, big_cap = 0;
+  BoxGrid grid;
+  double eps = 0;                     // the boxes' widening against rounding
+  // The query mesh: its triangles (3 each), boxes, and which of them are
+  // set (per face, 1 when its triangles were split and boxed this query).
+  uint32_t* qtris = nullptr;
+  double* qlo = nullptr;
+  double* qhi = nullptr;
+  uint8_t* qface = nullptr;
+  uint8_t* crossed = nullptr;         // per obstacle, this query
+  void carve(Arena& a, const CubeSphere& m, uint32_t max_obstacles);
+};
+
+// The obstacles: the closed meshes at positions xs[k] (3 per vertex each),
+// k < count <= max_obstacles. Their positions are read again by every
+// mark_contacts() call and must stay unchanged until the last.
+void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s);
+
+// Contacts of the mesh at positions x (3 per vertex) with the obstacles:
+// every crossing pair (a triangle of x, a triangle of an obstacle) counts
+// one, and an obstacle that x lies inside of or encloses without any
+// crossing counts one. mark (nv bytes, may be nullptr: then it stops at the
+// first offence) gets 1 at the vertices of x that take part: the vertices
+// of x's crossing triangles; every vertex of x when x lies inside an
+// obstacle or encloses one. Returns the number of offences. Touching
+// (coplanar contact, a vertex on the other surface) is not an offence.
+uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark);
+
+// Whether point p lies inside the closed mesh at positions x, by the parity
+// of a ray's crossings (rays through an edge or a vertex are cast again in
+// another direction). tris: its triangles (3 indices each), lo / hi their
+// boxes, nt of them.
+bool point_inside_mesh(const double* p, const double* x, const uint32_t* tris, const double* lo, const double* hi,
+                       uint32_t nt);
+
+}  // namespace ffseg
