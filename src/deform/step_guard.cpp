@@ -250,8 +250,11 @@ bool any_violation(const CubeSphere& m, const double* xs, TriangleScratch& ts) {
   return false;
 }
 
-bool violates(const CubeSphere& m, const double* xs, TriangleScratch& ts) {
-  return any_violation(m, xs, ts) || mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) > 0;
+// Contacts with the obstacles first: when the mesh is far from them their
+// test is a bounding-box reject, cheaper than the self-intersection test.
+bool violates(const CubeSphere& m, const double* xs, TriangleScratch& ts, ContactScratch* obstacles) {
+  return any_violation(m, xs, ts) || (obstacles && mark_contacts(m, xs, *obstacles, nullptr) > 0) ||
+         mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) > 0;
 }
 
 void relax(const CubeSphere& m, double* share, size_t v) {
@@ -335,9 +338,12 @@ uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* 
 // (most of a round's cost) waits; ts.vertex_pending gathers the vertices
 // moved since it last ran, so that it goes on from its tracked pairs. *tracked:
 // whether it has run in this guard call (then incrementally).
+// Contacts with the obstacles (when given) are marked with the offences, a
+// round's cheap tests.
 uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, const uint8_t* moved,
-                  TriangleScratch& ts, bool* tracked) {
-  const uint32_t count = mark_offending(m, x_old, xs, moved, ts);
+                  TriangleScratch& ts, bool* tracked, ContactScratch* obstacles) {
+  uint32_t count = mark_offending(m, x_old, xs, moved, ts);
+  if (obstacles) count += mark_contacts(m, xs, *obstacles, ts.vertex_marks);
   uint8_t* pending = ts.vertex_pending;
   if (moved)
     for (size_t v = 0; v < m.nv; ++v) pending[v] |= moved[v];
@@ -352,7 +358,7 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
 }  // namespace
 
 double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
-                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts) {
+                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts, ContactScratch* obstacles) {
   // First a line search along the whole solved update: the largest s in
   // {1, 1/2, 1/4} that turns no triangle by 90 degrees and folds no edge.
   // Scaling the whole update keeps it smooth.
@@ -372,12 +378,12 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   double s = 1.0;
   blend(nv, x_old, x_new, s, share, xs, nullptr);
   int halvings = 0;
-  bool bad = violates(m, xs, ts);
+  bool bad = violates(m, xs, ts, obstacles);
   while (bad && halvings < kGlobalHalvings) {
     ++halvings;
     s *= 0.5;
     blend(nv, x_old, x_new, s, share, xs, nullptr);
-    bad = violates(m, xs, ts);
+    bad = violates(m, xs, ts, obstacles);
   }
   for (size_t v = 0; v < nv; ++v) share[v] = s;
   // Still offending: one region holds the step back. Every share starts again
@@ -395,7 +401,7 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   uint8_t* moved = ts.vertex_flags;
   bool tracked = false;  // mark_all's first intersection test is from scratch
   for (int round = 0; round < kLocalRounds && !clean; ++round) {
-    if (round == 0) mark_all(m, x_old, xs, nullptr, ts, &tracked);
+    if (round == 0) mark_all(m, x_old, xs, nullptr, ts, &tracked, obstacles);
     for (size_t v = 0; v < nv; ++v) mark[v] = ts.vertex_marks[v];
     for (size_t v = 0; v < nv; ++v) {
       grow[v] = mark[v];
@@ -410,7 +416,7 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
       for (size_t v = nv; v-- > 0;) relax(m, share, v);
     }
     blend(nv, x_old, x_new, 1.0, share, xs, moved);
-    clean = mark_all(m, x_old, xs, moved, ts, &tracked) == 0;
+    clean = mark_all(m, x_old, xs, moved, ts, &tracked, obstacles) == 0;
   }
   double g = 1.0;
   for (int h = 0; !clean; ++h) {
@@ -420,7 +426,7 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
     }
     g *= 0.5;
     blend(nv, x_old, x_new, g, share, xs, nullptr);
-    clean = !violates(m, xs, ts);
+    clean = !violates(m, xs, ts, obstacles);
   }
   double kept = 0;
   // Whether the accepted positions are the last tested ones (xs), whose

@@ -1,12 +1,15 @@
 // A guard on each step's motion: no triangle of the mesh may turn by 90
 // degrees or more between the old and the new positions (an inverted or
 // collapsed face is a flip in the making), and no edge may become a fold
-// (adjacent triangles at more than 120 degrees). The whole update is scaled
-// back by halves until the mesh passes; the old mesh passes trivially.
+// (adjacent triangles at more than 120 degrees), no triangle may cross
+// another, nor, when obstacles are given, another object's. The whole update
+// is scaled back by halves, then locally, until the mesh passes; the old
+// mesh passes trivially.
 #pragma once
 #include <cstdint>
 
 #include "cubesphere.h"
+#include "mesh_contact.h"
 #include "mesh_intersection.h"
 
 namespace ffseg {
@@ -17,8 +20,14 @@ namespace ffseg {
 // the local rounds' incremental state (each round re-tests only the faces and
 // triangles around the vertices whose share changed). Returns the mean share
 // of the update kept (1 when nothing turned, folded or crossed).
+// obstacles (optional): the other objects, built by build_obstacles(); then
+// every position set the guard tests must also be free of contacts with
+// them (mark_contacts()), the vertices in contact held back as the
+// offenders of a fold or crossing are. x_old must be free of contacts (the
+// guard falls back to it). Without obstacles the result is bit for bit that
+// of the guard alone.
 double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
-                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts);
+                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts, ContactScratch* obstacles = nullptr);
 
 // The same test at positions xs (3 per vertex): sets mark[v] = 1 for the
 // vertices of every triangle that turned by 90 degrees or more and of every

@@ -1,5 +1,6 @@
 // The step guard (src/deform/step_guard.h) on the bare cube-sphere: a step
-// that would cross backs off where it crosses; its fold-test cache.
+// that would cross itself or another object backs off where it crosses; its
+// fold-test cache.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -9,6 +10,7 @@
 
 #include "cubesphere.h"
 #include "diffusion.h"
+#include "mesh_contact.h"
 #include "mesh_intersection.h"
 #include "step_guard.h"
 #include "support/sphere_box.h"
@@ -100,4 +102,124 @@ TEST_CASE("step guard: the last step's fold-test cache, swapped in at its accept
   CHECK(backed_off >= 3);
   CHECK(ffseg::TriangleScratchTesting::reused_old_cache(a.tri) >= 6);  // swapped in on most steps
   CHECK(ffseg::TriangleScratchTesting::reused_old_cache(b.tri) == 0);
+}
+
+namespace {
+
+// A bare cube-sphere with the guard's scratch and room for obstacles.
+struct ObstacleBox {
+  ffseg::CubeSphere m;
+  ffseg::TriangleScratch tri;
+  ffseg::ContactScratch cs;
+  ArenaBox box;
+  ObstacleBox(uint32_t n, uint32_t max_obstacles)
+      : box([&](ffseg::Arena& a) {
+          m.carve(a, n);
+          tri.carve(a, m);
+          cs.carve(a, m, max_obstacles);
+        }) {
+    REQUIRE(box.ok());
+    m.build();
+  }
+  std::vector<double> sphere(double r, double cx = 0, double cy = 0, double cz = 0) const {
+    std::vector<double> x(size_t(3) * m.nv);
+    const double c[3] = {cx, cy, cz};
+    for (size_t q = 0; q < x.size(); ++q) x[q] = c[q % 3] + r * m.unit[q];
+    return x;
+  }
+};
+
+// Columns (x_new[c * nv + v]) back to 3 per vertex.
+std::vector<double> rows(const std::vector<double>& cols, uint32_t nv) {
+  std::vector<double> out(size_t(3) * nv);
+  for (uint32_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a) out[3 * size_t(v) + a] = cols[size_t(a) * nv + v];
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("step guard: a step that would push one object into another is held back only where they touch") {
+  // Sphere A (r 10) grows 4 mm; sphere B lies 0.5 mm off A's +x side, so
+  // even a quarter of the step would cross it there. The guard with B as an
+  // obstacle holds back the side facing B; the far side grows its full 4 mm.
+  for (uint32_t n : {12u, 21u}) {
+    CAPTURE(n);
+    ObstacleBox b(n, 1);
+    const uint32_t nv = b.m.nv;
+    const std::vector<double> x_old = b.sphere(10);
+    const std::vector<double> B = b.sphere(10, 20.5, 0.23, -0.17);
+    const double* obst[1] = {B.data()};
+    ffseg::build_obstacles(b.m, obst, 1, b.cs);
+    REQUIRE(ffseg::mark_contacts(b.m, x_old.data(), b.cs, nullptr) == 0);
+    std::vector<double> prop(size_t(3) * nv);
+    for (uint32_t v = 0; v < nv; ++v)
+      for (int a = 0; a < 3; ++a) prop[size_t(a) * nv + v] = 14.0 * b.m.unit[3 * v + a];
+    std::vector<double> xs(size_t(3) * nv), share(nv);
+    std::vector<uint8_t> mark(nv), grow(nv);
+    // Without the obstacle the whole step passes, into B.
+    std::vector<double> alone = prop;
+    CHECK(ffseg::guard_step(b.m, x_old.data(), alone.data(), xs.data(), share.data(), mark.data(), grow.data(),
+                            b.tri) == 1.0);
+    CHECK(ffseg::mark_contacts(b.m, rows(alone, nv).data(), b.cs, nullptr) > 0);
+    std::vector<double> x_new = prop;
+    const double kept = ffseg::guard_step(b.m, x_old.data(), x_new.data(), xs.data(), share.data(), mark.data(),
+                                          grow.data(), b.tri, &b.cs);
+    CAPTURE(kept);
+    CHECK(kept < 1.0);
+    CHECK(kept > 0.75);  // one side backs off, not the whole mesh
+    const std::vector<double> out = rows(x_new, nv);
+    CHECK(ffseg::mark_contacts(b.m, out.data(), b.cs, nullptr) == 0);
+    CHECK(ffseg::mark_intersections(b.m, out.data(), b.tri, nullptr) == 0);
+    CHECK(ffseg::mark_violations(b.m, x_old.data(), out.data(), nullptr) == 0);
+    uint32_t far = 0, facing = 0;
+    for (uint32_t v = 0; v < nv; ++v) {
+      const double* p = &out[3 * size_t(v)];
+      const double r = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+      const double ux = b.m.unit[3 * size_t(v)];
+      if (ux < 0) {  // the far half moved in full
+        ++far;
+        CHECK(r == doctest::Approx(14.0).epsilon(1e-12));
+      }
+      if (ux > 0.99) {  // facing B: stayed short of it
+        ++facing;
+        CHECK(p[0] < 10.5);
+      }
+    }
+    CHECK(far > nv / 3);
+    CHECK(facing > 0);
+  }
+}
+
+TEST_CASE("step guard: no obstacles or an empty obstacle set change nothing, bit for bit") {
+  // The crossing and fold test of the first case, guarded three ways.
+  ObstacleBox b(12, 2);
+  const uint32_t nv = b.m.nv;
+  const std::vector<double> x_old = b.sphere(10);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  std::vector<double> prop(size_t(3) * nv);
+  const uint32_t bad = nv / 3;
+  for (uint32_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a)
+      prop[size_t(a) * nv + v] = (v == bad ? -50.0 : 11.0) * b.m.unit[3 * v + a] + 0.2 * U(rng);
+  const std::vector<double> far = b.sphere(3, 60, 0, 0);
+  const double* obst[1] = {far.data()};
+  std::vector<double> results[3];
+  std::vector<double> shares[3];
+  for (int k = 0; k < 3; ++k) {
+    std::vector<double> x_new = prop, xs(size_t(3) * nv), share(nv);
+    std::vector<uint8_t> mark(nv), grow(nv);
+    b.tri.new_key_valid = false;
+    ffseg::build_obstacles(b.m, obst, k == 1 ? 0 : 1, b.cs);
+    ffseg::guard_step(b.m, x_old.data(), x_new.data(), xs.data(), share.data(), mark.data(), grow.data(), b.tri,
+                      k == 0 ? nullptr : &b.cs);
+    results[k] = x_new;
+    shares[k] = share;
+  }
+  CHECK(results[0] != prop);  // the guard did back off
+  CHECK(results[1] == results[0]);
+  CHECK(results[2] == results[0]);
+  CHECK(shares[1] == shares[0]);
+  CHECK(shares[2] == shares[0]);
 }
