@@ -106,29 +106,6 @@ TEST_CASE("step guard: the last step's fold-test cache, swapped in at its accept
 
 namespace {
 
-// A bare cube-sphere with the guard's scratch and room for obstacles.
-struct ObstacleBox {
-  ffseg::CubeSphere m;
-  ffseg::TriangleScratch tri;
-  ffseg::ContactScratch cs;
-  ArenaBox box;
-  ObstacleBox(uint32_t n, uint32_t max_obstacles)
-      : box([&](ffseg::Arena& a) {
-          m.carve(a, n);
-          tri.carve(a, m);
-          cs.carve(a, m, max_obstacles);
-        }) {
-    REQUIRE(box.ok());
-    m.build();
-  }
-  std::vector<double> sphere(double r, double cx = 0, double cy = 0, double cz = 0) const {
-    std::vector<double> x(size_t(3) * m.nv);
-    const double c[3] = {cx, cy, cz};
-    for (size_t q = 0; q < x.size(); ++q) x[q] = c[q % 3] + r * m.unit[q];
-    return x;
-  }
-};
-
 // Columns (x_new[c * nv + v]) back to 3 per vertex.
 std::vector<double> rows(const std::vector<double>& cols, uint32_t nv) {
   std::vector<double> out(size_t(3) * nv);
@@ -145,7 +122,7 @@ TEST_CASE("step guard: a step that would push one object into another is held ba
   // obstacle holds back the side facing B; the far side grows its full 4 mm.
   for (uint32_t n : {12u, 21u}) {
     CAPTURE(n);
-    ObstacleBox b(n, 1);
+    ffseg_test::ContactBox b(n, 1);
     const uint32_t nv = b.m.nv;
     const std::vector<double> x_old = b.sphere(10);
     const std::vector<double> B = b.sphere(10, 20.5, 0.23, -0.17);
@@ -193,7 +170,7 @@ TEST_CASE("step guard: a step that would push one object into another is held ba
 
 TEST_CASE("step guard: no obstacles or an empty obstacle set change nothing, bit for bit") {
   // The crossing and fold test of the first case, guarded three ways.
-  ObstacleBox b(12, 2);
+  ffseg_test::ContactBox b(12, 2);
   const uint32_t nv = b.m.nv;
   const std::vector<double> x_old = b.sphere(10);
   std::mt19937_64 rng(7);

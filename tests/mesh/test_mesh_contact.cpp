@@ -11,41 +11,12 @@
 #include "mesh_contact.h"
 #include "triangle_crossing.h"
 #include "triangulation.h"
+#include "support/sphere_box.h"
 #include "test_util.h"
 
-using ffseg_test::ArenaBox;
+using ffseg_test::ContactBox;
 
 namespace {
-
-struct ContactBox {
-  ffseg::CubeSphere m;
-  ffseg::ContactScratch cs;
-  ArenaBox box;
-  ContactBox(uint32_t n, uint32_t max_obstacles)
-      : box([&](ffseg::Arena& a) {
-          m.carve(a, n);
-          cs.carve(a, m, max_obstacles);
-        }) {
-    REQUIRE(box.ok());
-    m.build();
-  }
-  // The sphere of radius r around c, 3 per vertex.
-  std::vector<double> sphere(double r, double cx = 0, double cy = 0, double cz = 0) const {
-    std::vector<double> x(size_t(3) * m.nv);
-    const double c[3] = {cx, cy, cz};
-    for (size_t q = 0; q < x.size(); ++q) x[q] = c[q % 3] + r * m.unit[q];
-    return x;
-  }
-  void obstacles(std::initializer_list<const std::vector<double>*> xs) {
-    std::vector<const double*> p;
-    for (const auto* x : xs) p.push_back(x->data());
-    ffseg::build_obstacles(m, p.data(), uint32_t(p.size()), cs);
-  }
-  uint32_t contacts(const std::vector<double>& x, std::vector<uint8_t>* mark) {
-    if (mark) mark->assign(m.nv, 0);
-    return ffseg::mark_contacts(m, x.data(), cs, mark ? mark->data() : nullptr);
-  }
-};
 
 // Every triangle of x against every triangle of each obstacle: the crossing
 // pairs, and the vertices of x's triangles among them marked.
