@@ -357,6 +357,25 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
 
 }  // namespace
 
+void guard_region(const CubeSphere& m, const double* x_old, const double* x_new, double region[6]) {
+  // Every tested position is x_old + f (x_new - x_old) with 0 <= f <= 1 per
+  // vertex: between the two per axis (build_obstacles() widens the box
+  // against the rounding of the blend).
+  const size_t nv = m.nv;
+  for (int a = 0; a < 3; ++a) {
+    double lo = x_old[a], hi = x_old[a];
+    for (size_t v = 0; v < nv; ++v) {
+      const double o = x_old[3 * v + a], p = x_new[a * nv + v];
+      lo = o < lo ? o : lo;
+      hi = o > hi ? o : hi;
+      lo = p < lo ? p : lo;
+      hi = p > hi ? p : hi;
+    }
+    region[a] = lo;
+    region[3 + a] = hi;
+  }
+}
+
 double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
                   uint8_t* mark, uint8_t* grow, TriangleScratch& ts, ContactScratch* obstacles) {
   // First a line search along the whole solved update: the largest s in

@@ -29,6 +29,11 @@ namespace ffseg {
 double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
                   uint8_t* mark, uint8_t* grow, TriangleScratch& ts, ContactScratch* obstacles = nullptr);
 
+// The box (lo[3], hi[3]) holding every position set guard_step() can test
+// for x_old and x_new (laid out as guard_step() takes them): the region to
+// build its obstacles for (build_obstacles()).
+void guard_region(const CubeSphere& m, const double* x_old, const double* x_new, double region[6]);
+
 // The same test at positions xs (3 per vertex): sets mark[v] = 1 for the
 // vertices of every triangle that turned by 90 degrees or more and of every
 // face at a new fold; returns how many offences (mark may be nullptr).

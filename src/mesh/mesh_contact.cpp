@@ -25,17 +25,49 @@ constexpr double kSlope[kRays][2] = {{0.0173205081, 0.0223606798}, {-0.026457513
 constexpr int kOrigins = 8;
 
 inline void vertex_box(const double* x, uint32_t nv, double eps, double* lo, double* hi) {
-  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = x[a];
-  for (uint32_t v = 1; v < nv; ++v)
-    for (int a = 0; a < 3; ++a) {
-      const double p = x[3 * size_t(v) + a];
-      lo[a] = p < lo[a] ? p : lo[a];
-      hi[a] = p > hi[a] ? p : hi[a];
-    }
-  for (int a = 0; a < 3; ++a) {
-    lo[a] -= eps;
-    hi[a] += eps;
+  // Locals (not lo / hi, which may alias x as far as the compiler knows).
+  double l0 = x[0], l1 = x[1], l2 = x[2], h0 = x[0], h1 = x[1], h2 = x[2];
+  for (uint32_t v = 1; v < nv; ++v) {
+    const double* p = x + 3 * size_t(v);
+    l0 = p[0] < l0 ? p[0] : l0;
+    h0 = p[0] > h0 ? p[0] : h0;
+    l1 = p[1] < l1 ? p[1] : l1;
+    h1 = p[1] > h1 ? p[1] : h1;
+    l2 = p[2] < l2 ? p[2] : l2;
+    h2 = p[2] > h2 ? p[2] : h2;
   }
+  lo[0] = l0 - eps;
+  lo[1] = l1 - eps;
+  lo[2] = l2 - eps;
+  hi[0] = h0 + eps;
+  hi[1] = h1 + eps;
+  hi[2] = h2 + eps;
+}
+
+// Per vertex, on which sides of the box [lo, hi] it lies (bits: below, above
+// per axis): the box of a face misses the box exactly when the codes of its
+// vertices share a bit.
+inline void outcodes(const double* x, uint32_t nv, const double* lo, const double* hi, uint8_t* code) {
+  const double l0 = lo[0], l1 = lo[1], l2 = lo[2], h0 = hi[0], h1 = hi[1], h2 = hi[2];
+  for (uint32_t v = 0; v < nv; ++v) {
+    const double* p = x + 3 * size_t(v);
+    code[v] = uint8_t(int(p[0] < l0) | int(p[0] > h0) << 1 | int(p[1] < l1) << 2 | int(p[1] > h1) << 3 |
+                      int(p[2] < l2) << 4 | int(p[2] > h2) << 5);
+  }
+}
+
+// Whether face f's box meets the box of the codes.
+inline bool face_meets(const CubeSphere& m, uint32_t f, const uint8_t* code) {
+  const uint32_t* q = m.faces + 4 * size_t(f);
+  uint8_t c = uint8_t(code[q[0]] & code[q[1]] & code[q[2]]);
+  if (q[3] != kNone) c &= code[q[3]];
+  return c == 0;
+}
+
+// The triangle of mesh m with index t lies in this face.
+inline uint32_t face_of(const CubeSphere& m, uint32_t t) {
+  const uint32_t quads = m.nfaces - 8;
+  return t < 2 * quads ? t / 2 : t - quads;
 }
 
 // Box [la, ha] inside box [lb, hb] (closed).
@@ -104,6 +136,46 @@ inline void prepare_face(const CubeSphere& m, const double* x, ContactScratch& s
   }
 }
 
+// Obstacle k's face f split at its positions and its triangles boxed
+// (widened by eps); returns how many triangles.
+inline int obstacle_face(const CubeSphere& m, ContactScratch& s, uint32_t k, uint32_t f, double eps) {
+  const double* y = s.pos[k];
+  const size_t t0 = size_t(k) * s.nt + m.first_triangle(f);
+  uint32_t* tri = s.tris + 3 * t0;
+  const int c = face_triangles(m, f, tri, y);
+  for (int i = 0; i < c; ++i) {
+    const uint32_t* id = tri + 3 * i;
+    detail::triangle_box(y + 3 * size_t(id[0]), y + 3 * size_t(id[1]), y + 3 * size_t(id[2]), eps,
+                         s.lo + 3 * (t0 + i), s.hi + 3 * (t0 + i));
+  }
+  s.fdone[size_t(k) * m.nfaces + f] = 1;
+  return c;
+}
+
+// Calls f(id) for every triangle of the obstacles set up (faces done).
+template <class F>
+void for_each_done(const CubeSphere& m, const ContactScratch& s, F&& fn) {
+  for (uint32_t k = 0; k < s.count; ++k) {
+    if (!(s.state[k] & ContactScratch::kActive)) continue;
+    const uint8_t* done = s.fdone + size_t(k) * m.nfaces;
+    for (uint32_t f = 0; f < m.nfaces; ++f) {
+      if (!done[f]) continue;
+      const uint32_t t0 = k * s.nt + m.first_triangle(f);
+      fn(t0);
+      if (m.faces[4 * size_t(f) + 3] != kNone) fn(t0 + 1);
+    }
+  }
+}
+
+// Obstacle k whole (every face split and boxed), for the ray test.
+void complete(const CubeSphere& m, ContactScratch& s, uint32_t k) {
+  if (s.state[k] & ContactScratch::kComplete) return;
+  const uint8_t* done = s.fdone + size_t(k) * m.nfaces;
+  for (uint32_t f = 0; f < m.nfaces; ++f)
+    if (!done[f]) obstacle_face(m, s, k, f, s.eps);
+  s.state[k] |= ContactScratch::kComplete;
+}
+
 }  // namespace
 
 void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
@@ -113,6 +185,8 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   const size_t total = size_t(nt) * max_obst;
   pos = a.alloc<const double*>(max_obst);
   box = a.alloc<double>(size_t(6) * max_obst);
+  state = a.alloc<uint8_t>(max_obst);
+  fdone = a.alloc<uint8_t>(size_t(m.nfaces) * max_obst);
   tris = a.alloc<uint32_t>(3 * total);
   lo = a.alloc<double>(3 * total);
   hi = a.alloc<double>(3 * total);
@@ -123,60 +197,92 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   qlo = a.alloc<double>(size_t(3) * nt);
   qhi = a.alloc<double>(size_t(3) * nt);
   qface = a.alloc<uint8_t>(m.nfaces);
+  qcode = a.alloc<uint8_t>(m.nv);
   crossed = a.alloc<uint8_t>(max_obst);
 }
 
-void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s) {
+void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s,
+                     const double* region) {
   s.count = count < s.max_obstacles ? count : s.max_obstacles;
   const uint32_t nt = s.nt;
-  const size_t total = size_t(nt) * s.count;
+  // The region, widened against the rounding of positions blended inside it.
+  double rlo[3], rhi[3];
+  if (region) {
+    double r = 0;
+    for (int a = 0; a < 3; ++a) r = std::fmax(r, std::fmax(std::fabs(region[a]), std::fabs(region[3 + a])));
+    for (int a = 0; a < 3; ++a) {
+      rlo[a] = region[a] - 1e-6 * r;
+      rhi[a] = region[3 + a] + 1e-6 * r;
+    }
+  }
   double emean = 0, extent = 0;
+  size_t entered = 0;
   for (uint32_t k = 0; k < s.count; ++k) {
     s.pos[k] = xs[k];
     double* b = s.box + 6 * size_t(k);
     vertex_box(xs[k], m.nv, 0.0, b, b + 3);
+    s.state[k] = 0;
+    if (region && !detail::boxes_overlap(b, b + 3, rlo, rhi)) continue;  // never met: nothing to enter
     for (int a = 0; a < 3; ++a) extent = std::fmax(extent, b[3 + a] - b[a]);
-    uint32_t* tri = s.tris + 3 * size_t(k) * nt;
-    triangulate(m, xs[k], tri);
-    for (uint32_t t = 0; t < nt; ++t) {
-      const uint32_t* id = tri + 3 * size_t(t);
-      const size_t g = 3 * (size_t(k) * nt + t);
-      detail::triangle_box(xs[k] + 3 * size_t(id[0]), xs[k] + 3 * size_t(id[1]), xs[k] + 3 * size_t(id[2]), 0.0,
-                           s.lo + g, s.hi + g);
-      emean += (s.hi[g] - s.lo[g]) + (s.hi[g + 1] - s.lo[g + 1]) + (s.hi[g + 2] - s.lo[g + 2]);
+    s.state[k] = uint8_t(ContactScratch::kActive | (region ? 0 : ContactScratch::kComplete));
+    uint8_t* done = s.fdone + size_t(k) * m.nfaces;
+    if (region) outcodes(xs[k], m.nv, rlo, rhi, s.qcode);
+    for (uint32_t f = 0; f < m.nfaces; ++f) {
+      done[f] = 0;
+      if (region && !face_meets(m, f, s.qcode)) continue;
+      const int c = obstacle_face(m, s, k, f, 0.0);
+      const size_t t0 = size_t(k) * nt + m.first_triangle(f);
+      for (int i = 0; i < c; ++i) {
+        const size_t g = 3 * (t0 + i);
+        emean += (s.hi[g] - s.lo[g]) + (s.hi[g + 1] - s.lo[g + 1]) + (s.hi[g + 2] - s.lo[g + 2]);
+      }
+      entered += size_t(c);
     }
   }
   s.nbig = 0;
-  if (total == 0) return;
-  emean /= 3.0 * double(total);
+  s.eps = 0;
+  if (entered == 0) {
+    s.grid.set_cell_size(1);
+    s.grid.build(s.lo, s.hi, 0, [](uint32_t) { return false; });
+    return;
+  }
+  emean /= 3.0 * double(entered);
   // Candidates: boxes that overlap, each widened by a hair against rounding
   // (the query mesh's by the same).
   s.eps = std::isfinite(emean + extent) ? 1e-9 * (emean + extent) : 0.0;
-  for (size_t q = 0; q < 3 * total; ++q) {
-    s.lo[q] -= s.eps;
-    s.hi[q] += s.eps;
-  }
+  for_each_done(m, s, [&](uint32_t t) {
+    for (int a = 0; a < 3; ++a) {
+      s.lo[3 * size_t(t) + a] -= s.eps;
+      s.hi[3 * size_t(t) + a] += s.eps;
+    }
+  });
   for (uint32_t k = 0; k < s.count; ++k)
     for (int a = 0; a < 3; ++a) {
       s.box[6 * size_t(k) + a] -= s.eps;
       s.box[6 * size_t(k) + 3 + a] += s.eps;
     }
+  // The grid's cells twice the mean box extent, doubled until at most
+  // big_cap boxes outgrow them (those are tested against every query).
   double h = 2 * emean + 1e-9 * extent;
   if (!(h > 0) || !std::isfinite(h)) h = 1;
   for (;;) {
     s.grid.set_cell_size(h);
     s.nbig = 0;
     bool over = false;
-    for (size_t t = 0; t < total && !over; ++t)
-      if (!s.grid.fits(s.lo + 3 * t, s.hi + 3 * t)) {
-        if (s.nbig == s.big_cap) over = true;
-        else s.big[s.nbig++] = uint32_t(t);
-      }
+    for_each_done(m, s, [&](uint32_t t) {
+      if (over || s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t))) return;
+      if (s.nbig == s.big_cap) over = true;
+      else s.big[s.nbig++] = t;
+    });
     if (!over) break;
     h *= 2;
   }
-  s.grid.build(s.lo, s.hi, uint32_t(total),
-               [&](uint32_t t) { return s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t)); });
+  const uint32_t total = nt * s.count;
+  s.grid.build(s.lo, s.hi, total, [&](uint32_t t) {
+    const uint32_t k = t / nt;
+    return (s.state[k] & ContactScratch::kActive) && s.fdone[size_t(k) * m.nfaces + face_of(m, t - k * nt)] &&
+           s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+  });
 }
 
 uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark) {
@@ -191,7 +297,7 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
   for (uint32_t k = 0; k < s.count; ++k) {
     const double* b = s.box + 6 * size_t(k);
     s.crossed[k] = 0;
-    if (!detail::boxes_overlap(xlo, xhi, b, b + 3)) continue;
+    if (!(s.state[k] & ContactScratch::kActive) || !detail::boxes_overlap(xlo, xhi, b, b + 3)) continue;
     for (int a = 0; a < 3; ++a) {
       const double l = b[a] > xlo[a] ? b[a] : xlo[a], h = b[3 + a] < xhi[a] ? b[3 + a] : xhi[a];
       zlo[a] = near == 0 || l < zlo[a] ? l : zlo[a];
@@ -219,26 +325,21 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
     }
     mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
   };
+  {
+    // Faces whose boxes (widened by eps) meet the zone, by outcodes.
+    double wlo[3], whi[3];
+    for (int a = 0; a < 3; ++a) {
+      wlo[a] = zlo[a] - s.eps;
+      whi[a] = zhi[a] + s.eps;
+    }
+    outcodes(x, m.nv, wlo, whi, s.qcode);
+  }
   for (uint32_t f = 0; f < m.nfaces; ++f) s.qface[f] = 0;
   for (uint32_t f = 0; f < m.nfaces && !stop; ++f) {
-    const uint32_t* q = m.faces + 4 * size_t(f);
-    const int nq = q[3] == kNone ? 3 : 4;
-    double flo[3], fhi[3];
-    for (int a = 0; a < 3; ++a) flo[a] = fhi[a] = x[3 * size_t(q[0]) + a];
-    for (int i = 1; i < nq; ++i)
-      for (int a = 0; a < 3; ++a) {
-        const double p = x[3 * size_t(q[i]) + a];
-        flo[a] = p < flo[a] ? p : flo[a];
-        fhi[a] = p > fhi[a] ? p : fhi[a];
-      }
-    for (int a = 0; a < 3; ++a) {
-      flo[a] -= s.eps;
-      fhi[a] += s.eps;
-    }
-    if (!detail::boxes_overlap(flo, fhi, zlo, zhi)) continue;
+    if (!face_meets(m, f, s.qcode)) continue;
     prepare_face(m, x, s, f);
     const uint32_t t0 = m.first_triangle(f);
-    const int c = nq == 4 ? 2 : 1;
+    const int c = m.faces[4 * size_t(f) + 3] != kNone ? 2 : 1;
     for (int i = 0; i < c && !stop; ++i) {
       const uint32_t t = t0 + i;
       const double *lt = s.qlo + 3 * size_t(t), *ht = s.qhi + 3 * size_t(t);
@@ -259,9 +360,11 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
           if (detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(t, u);
         }
       } else {
-        const size_t total = size_t(nt) * s.count;
-        for (size_t u = 0; u < total && !stop; ++u)
-          if (detail::boxes_overlap(lt, ht, s.lo + 3 * u, s.hi + 3 * u)) test(t, uint32_t(u));
+        // Triangles completed for the ray test lie outside the region, so
+        // outside every query's boxes.
+        for_each_done(m, s, [&](uint32_t u) {
+          if (!stop && detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(t, u);
+        });
       }
     }
   }
@@ -272,13 +375,15 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
   // decides.
   bool all_split = false;
   for (uint32_t k = 0; k < s.count; ++k) {
-    if (s.crossed[k]) continue;
+    if (s.crossed[k] || !(s.state[k] & ContactScratch::kActive)) continue;
     const double* b = s.box + 6 * size_t(k);
     if (!detail::boxes_overlap(xlo, xhi, b, b + 3)) continue;
     const size_t g = size_t(k) * nt;
     bool inside = false;
-    if (box_inside(xlo, xhi, b, b + 3))
+    if (box_inside(xlo, xhi, b, b + 3)) {
+      complete(m, s, k);
       inside = vertices_inside(x, m.nv, s.pos[k], s.tris + 3 * g, s.lo + 3 * g, s.hi + 3 * g, nt) == 1;
+    }
     if (!inside && box_inside(b, b + 3, xlo, xhi)) {
       if (!all_split)
         for (uint32_t f = 0; f < m.nfaces; ++f) prepare_face(m, x, s, f);

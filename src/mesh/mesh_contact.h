@@ -25,8 +25,14 @@ struct ContactScratch {
   uint32_t nt = 0;                    // triangles per mesh
   const double** pos = nullptr;       // per obstacle: its positions (the caller's, 3 per vertex)
   double* box = nullptr;              // per obstacle: lo[3], hi[3] of its vertices, widened by eps
+  // Per obstacle: kActive (its box meets the region: its faces there are
+  // set up and in the grid), kComplete (every face set up, for the ray test).
+  static constexpr uint8_t kActive = 1, kComplete = 2;
+  uint8_t* state = nullptr;
+  uint8_t* fdone = nullptr;           // per obstacle and face: split and boxed
   // Obstacle triangles, id k * nt + t: vertex indices (3 each, within
-  // obstacle k, face_triangles() split at its positions) and boxes.
+  // obstacle k, face_triangles() split at its positions) and boxes, valid
+  // where fdone is set for the triangle's face.
   uint32_t* tris = nullptr;
   double* lo = nullptr;
   double* hi = nullptr;
@@ -40,6 +46,7 @@ struct ContactScratch {
   double* qlo = nullptr;
   double* qhi = nullptr;
   uint8_t* qface = nullptr;
+  uint8_t* qcode = nullptr;           // per vertex: outcodes against a box (scratch)
   uint8_t* crossed = nullptr;         // per obstacle, this query
   void carve(Arena& a, const CubeSphere& m, uint32_t max_obstacles);
 };
@@ -47,7 +54,12 @@ struct ContactScratch {
 // The obstacles: the closed meshes at positions xs[k] (3 per vertex each),
 // k < count <= max_obstacles. Their positions are read again by every
 // mark_contacts() call and must stay unchanged until the last.
-void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s);
+// region (optional; lo[3] then hi[3]): a box holding every position set that
+// will be queried (for the step guard: the boxes of the old and the proposed
+// positions together). Obstacles whose box misses it cost one pass over
+// their vertices, and only their faces meeting it enter the grid.
+void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s,
+                     const double* region = nullptr);
 
 // Contacts of the mesh at positions x (3 per vertex) with the obstacles:
 // every crossing pair (a triangle of x, a triangle of an obstacle) counts

@@ -126,12 +126,26 @@ TEST_CASE("step guard: a step that would push one object into another is held ba
     const uint32_t nv = b.m.nv;
     const std::vector<double> x_old = b.sphere(10);
     const std::vector<double> B = b.sphere(10, 20.5, 0.23, -0.17);
-    const double* obst[1] = {B.data()};
-    ffseg::build_obstacles(b.m, obst, 1, b.cs);
-    REQUIRE(ffseg::mark_contacts(b.m, x_old.data(), b.cs, nullptr) == 0);
     std::vector<double> prop(size_t(3) * nv);
     for (uint32_t v = 0; v < nv; ++v)
       for (int a = 0; a < 3; ++a) prop[size_t(a) * nv + v] = 14.0 * b.m.unit[3 * v + a];
+    // The obstacles as the engine builds them: only B's faces within the
+    // step's region enter the grid.
+    const double* obst[1] = {B.data()};
+    double region[6];
+    ffseg::guard_region(b.m, x_old.data(), prop.data(), region);
+    bool holds = true;  // both ends of every vertex's path, and tight
+    double widest = 0;
+    for (uint32_t v = 0; v < nv; ++v)
+      for (int a = 0; a < 3; ++a) {
+        const double o = x_old[3 * size_t(v) + a], p = prop[size_t(a) * nv + v];
+        holds = holds && region[a] <= std::fmin(o, p) && std::fmax(o, p) <= region[3 + a];
+        widest = std::fmax(widest, std::fabs(p));
+      }
+    CHECK(holds);
+    CHECK(region[3] == widest);
+    ffseg::build_obstacles(b.m, obst, 1, b.cs, region);
+    REQUIRE(ffseg::mark_contacts(b.m, x_old.data(), b.cs, nullptr) == 0);
     std::vector<double> xs(size_t(3) * nv), share(nv);
     std::vector<uint8_t> mark(nv), grow(nv);
     // Without the obstacle the whole step passes, into B.

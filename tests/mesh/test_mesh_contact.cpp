@@ -122,10 +122,22 @@ TEST_CASE("mesh contact: a sphere inside another is found both ways, every verte
     CHECK(b.contacts(A, &mark) == 1);
     for (uint32_t v = 0; v < b.m.nv; ++v) REQUIRE(mark[v] == 1);
   }
-  // Two obstacles, the query inside the second only.
-  const auto far = b.sphere(3, 40, 0, 0), small = b.sphere(2, 1, 1, 1);
+  // Two obstacles, the query inside the second only; with a region around
+  // the query (the far one left out, A's faces there only in the grid, the
+  // rest of A set up for the ray test when asked), inside and outside.
+  const auto far = b.sphere(3, 40, 0, 0), small = b.sphere(2, 1, 1, 1), out = b.sphere(1, 7.5, 7.5, 7.5);
   b.obstacles({&far, &A});
   CHECK(b.contacts(small, nullptr) == 1);
+  const double* two[2] = {far.data(), A.data()};
+  const double around_small[6] = {-1, -1, -1, 3, 3, 3}, around_out[6] = {6.5, 6.5, 6.5, 8.5, 8.5, 8.5};
+  ffseg::build_obstacles(b.m, two, 2, b.cs, around_small);
+  CHECK(b.cs.state[0] == 0);
+  CHECK(b.cs.state[1] == ffseg::ContactScratch::kActive);
+  CHECK(b.contacts(small, nullptr) == 1);
+  CHECK(b.cs.state[1] == (ffseg::ContactScratch::kActive | ffseg::ContactScratch::kComplete));
+  ffseg::build_obstacles(b.m, two, 2, b.cs, around_out);
+  std::vector<uint8_t> mark;
+  CHECK(b.contacts(out, &mark) == 0);
 }
 
 TEST_CASE("mesh contact: jittered spheres and spikes agree with every triangle pair tested") {
@@ -181,7 +193,16 @@ TEST_CASE("mesh contact: jittered spheres and spikes agree with every triangle p
         obst.push_back(&y);
         p.push_back(y.data());
       }
-      ffseg::build_obstacles(b.m, p.data(), uint32_t(p.size()), b.cs);
+      // Every other case with a region: x's own box (the guard's use); only
+      // the obstacles' faces there enter the grid.
+      double region[6];
+      for (int a = 0; a < 3; ++a) region[a] = region[3 + a] = x[a];
+      for (uint32_t v = 0; v < nv; ++v)
+        for (int a = 0; a < 3; ++a) {
+          region[a] = std::fmin(region[a], x[3 * size_t(v) + a]);
+          region[3 + a] = std::fmax(region[3 + a], x[3 * size_t(v) + a]);
+        }
+      ffseg::build_obstacles(b.m, p.data(), uint32_t(p.size()), b.cs, trial % 2 ? region : nullptr);
       std::vector<uint8_t> mark(nv, 0), ref;
       const uint32_t got = ffseg::mark_contacts(b.m, x.data(), b.cs, mark.data());
       const uint32_t want = brute_crossings(b.m, x, obst, ref);
