@@ -16,8 +16,11 @@
 #include <doctest/doctest.h>
 
 #include "arena.h"
+#include "cubesphere.h"
 #include "fast_marching.h"
 #include "ffseg.h"
+#include "mesh_contact.h"
+#include "step_guard.h"
 
 extern "C" void* __libc_malloc(size_t);
 extern "C" void* __libc_calloc(size_t, size_t);
@@ -203,5 +206,67 @@ TEST_CASE("fast marching: begin, seed, march and merge_labels never allocate") {
   CHECK(reached[0] == n[0] * n[1] * n[2]);
   CHECK(reached[1] > 0);
   CHECK(reached[1] < reached[0]);
+  CHECK(calls == 0);
+}
+
+// The contact test between objects and the guard against them directly
+// (mesh/mesh_contact, deform/step_guard; the engine's wiring is the region
+// stage's): obstacles built with and without a region, crossings, an
+// object inside another (the ray test, completing a partly entered
+// obstacle), a guarded step held back at a neighbour.
+
+TEST_CASE("contacts: build_obstacles, mark_contacts and guard_step with obstacles never allocate") {
+  ffseg::CubeSphere m;
+  ffseg::TriangleScratch ts;
+  ffseg::ContactScratch cs;
+  auto carve = [&](ffseg::Arena& a) {
+    m.carve(a, 12);
+    ts.carve(a, m);
+    cs.carve(a, m, 2);
+  };
+  ffseg::Arena probe;
+  carve(probe);
+  void* mem = aligned_alloc(64, (probe.used() + 63) / 64 * 64);
+  ffseg::Arena arena(mem, probe.used());
+  carve(arena);
+  REQUIRE(arena.ok());
+  m.build();
+  const size_t nv = m.nv;
+  auto sphere = [&](double r, double cx) {
+    std::vector<double> x(3 * nv);
+    for (size_t q = 0; q < x.size(); ++q) x[q] = (q % 3 == 0 ? cx : 0.0) + r * m.unit[q];
+    return x;
+  };
+  const std::vector<double> A = sphere(10, 0), B = sphere(10, 20.5), deep = sphere(10, 15), inner = sphere(3, 1);
+  std::vector<double> prop(3 * nv), xs(3 * nv), share(nv);
+  for (size_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a) prop[a * nv + v] = 14.0 * m.unit[3 * v + a];
+  std::vector<uint8_t> mark(nv), grow(nv);
+  int calls = -1;
+  uint32_t crossing = 0, inside = 0, apart = 1;
+  double kept = 0;
+  {
+    Trap trap;
+    const double* one[1] = {deep.data()};
+    ffseg::build_obstacles(m, one, 1, cs);
+    crossing = ffseg::mark_contacts(m, A.data(), cs, mark.data());
+    const double* outer[1] = {A.data()};
+    const double around[6] = {-2, -3, -3, 4, 3, 3};
+    ffseg::build_obstacles(m, outer, 1, cs, around);
+    inside = ffseg::mark_contacts(m, inner.data(), cs, nullptr);
+    const double* two[2] = {B.data(), deep.data()};
+    double region[6];
+    ffseg::guard_region(m, A.data(), prop.data(), region);
+    ffseg::build_obstacles(m, two, 1, cs, region);
+    apart = ffseg::mark_contacts(m, A.data(), cs, mark.data());
+    kept = ffseg::guard_step(m, A.data(), prop.data(), xs.data(), share.data(), mark.data(), grow.data(), ts, &cs);
+    calls = trap.calls();
+  }
+  std::free(mem);
+  CHECK(crossing > 0);
+  CHECK(inside == 1);
+  CHECK(apart == 0);
+  CHECK(kept > 0.5);
+  CHECK(kept < 1.0);
   CHECK(calls == 0);
 }
