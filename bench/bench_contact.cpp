@@ -41,6 +41,12 @@ int main(int argc, char** argv) {
     });
     if (!box.ok()) return 1;
     m.build();
+    for (uint32_t k : {1u, 7u}) {
+      ffseg::Arena probe;
+      ffseg::ContactScratch c;
+      c.carve(probe, m, k);
+      std::printf("n=%2u ContactScratch for %u obstacle(s): %zu bytes\n", n, k, probe.used());
+    }
     auto sphere = [&](double r, double cx, double cy, double cz) {
       std::vector<double> x(size_t(3) * m.nv);
       const double c[3] = {cx, cy, cz};

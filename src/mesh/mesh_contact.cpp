@@ -398,14 +398,4 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
   return count;
 }
 
-bool point_inside_mesh(const double* p, const double* x, const uint32_t* tris, const double* lo, const double* hi,
-                       uint32_t nt) {
-  for (int r = 0; r < kRays; ++r) {
-    const int k = ray_parity(p, x, tris, lo, hi, nt, kSlope[r][0], kSlope[r][1]);
-    if (k >= 0) return k == 1;
-    if (k == -2) return false;
-  }
-  return false;
-}
-
 }  // namespace ffseg

@@ -55,9 +55,10 @@ struct ContactScratch {
 // k < count <= max_obstacles. Their positions are read again by every
 // mark_contacts() call and must stay unchanged until the last.
 // region (optional; lo[3] then hi[3]): a box holding every position set that
-// will be queried (for the step guard: the boxes of the old and the proposed
-// positions together). Obstacles whose box misses it cost one pass over
-// their vertices, and only their faces meeting it enter the grid.
+// will be queried (for the step guard: guard_region(), the boxes of the old
+// and the proposed positions together); a query outside it may miss
+// contacts. Obstacles whose box misses it cost one pass over their
+// vertices, and only their faces meeting it enter the grid.
 void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s,
                      const double* region = nullptr);
 
@@ -70,12 +71,5 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
 // obstacle or encloses one. Returns the number of offences. Touching
 // (coplanar contact, a vertex on the other surface) is not an offence.
 uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark);
-
-// Whether point p lies inside the closed mesh at positions x, by the parity
-// of a ray's crossings (rays through an edge or a vertex are cast again in
-// another direction). tris: its triangles (3 indices each), lo / hi their
-// boxes, nt of them.
-bool point_inside_mesh(const double* p, const double* x, const uint32_t* tris, const double* lo, const double* hi,
-                       uint32_t nt);
 
 }  // namespace ffseg
