@@ -343,8 +343,9 @@ static ffseg_status set_params_call(ffseg_engine* e, const ffseg_params* p) {
     return FFSEG_ERR_STRUCT_SIZE;
   }
   // Refused now so that a later version may give the field a meaning with 0 as its default.
-  if (full.reserved1 != 0) {
-    std::snprintf(en->message_buffer(), Engine::kMsgLen, "params.reserved1 must be 0");
+  if (full.reserved1 != 0 || full.reserved2 != 0) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "params.%s must be 0",
+                  full.reserved1 != 0 ? "reserved1" : "reserved2");
     return FFSEG_ERR_INVALID_ARGUMENT;
   }
   ffseg::Params q;
@@ -476,6 +477,21 @@ static ffseg_status rasterize_call(const ffseg_engine* e, uint32_t object, uint8
   return to_status(en->rasterize(object, mask, strides));
 }
 
+static ffseg_status region_mask_call(const ffseg_engine* e, uint32_t object, uint8_t* mask,
+                                     const int64_t strides[3]) {
+  FFSEG_REQUIRE_ENGINE(e);
+  Engine* en = const_cast<Engine*>(impl(e));
+  en->clear_message();
+  if (mask == nullptr) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "region_mask: mask is NULL");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  if (!en->volume().valid()) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "region_mask: no volume set");
+    return FFSEG_ERR_MISUSE;
+  }
+  return to_status(en->region_mask(object, mask, strides));
+}
 
 // Every failing call leaves a message: the engine's own, else one naming the
 // call and the status; and a copy in the thread's slot, so that
@@ -529,6 +545,11 @@ FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object
 FFSEG_API ffseg_status ffseg_rasterize(const ffseg_engine* e, uint32_t object, uint8_t* mask,
                                        const int64_t strides[3]) {
   return finish("rasterize", e, rasterize_call(e, object, mask, strides));
+}
+
+FFSEG_API ffseg_status ffseg_region_mask(const ffseg_engine* e, uint32_t object, uint8_t* mask,
+                                         const int64_t strides[3]) {
+  return finish("region_mask", e, region_mask_call(e, object, mask, strides));
 }
 
 }  // extern "C"

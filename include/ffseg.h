@@ -205,6 +205,18 @@ typedef struct ffseg_params {
   uint32_t reserved1;            /* must be 0; fills what would be tail padding after
                                     partial_volume_steps, so that a field appended later grows
                                     sizeof and struct_size tells the two layouts apart */
+  /* Several objects (thesis chapter 6), since 0.3.0 (a shorter struct reads these as their
+     defaults). They matter only while two or more objects are placed in one engine: */
+  double region_width_mm;        /* w_i of eq. 6.2.6-6.2.11, mm: each object's bounding region lies in its
+                                    mesh's bounding box grown by this much, and no front runs further
+                                    than this from the mesh; 0 = automatic, 10 mm; [0, 1000]; default 0 */
+  double border_weight;          /* positional weight of a border vertex (one whose search met another
+                                    object's region, thesis 6.3), times lambda_p, so that the Laplacian
+                                    solve does not push it past the border; (0, 1e9]; default 1000 */
+  uint32_t region_interval;      /* steps between recomputations of the bounding regions (a region is
+                                    also recomputed at once when its mesh comes within half of
+                                    region_width_mm of its box); 1..1000; default 4 */
+  uint32_t reserved2;            /* must be 0; fills the tail padding, as reserved1 does */
 } ffseg_params;
 
 /* Fills *p with the defaults above and struct_size = sizeof(ffseg_params). */
@@ -212,7 +224,7 @@ FFSEG_API void ffseg_params_init_default(ffseg_params* p);
 
 /* Validates every field; on an error nothing changes, the previous parameters
  * stay, and the message names the field. Errors: NULL_POINTER, STRUCT_SIZE,
- * INVALID_ARGUMENT (reserved1 not 0 included). Writes nothing the caller owns. */
+ * INVALID_ARGUMENT (reserved1 or reserved2 not 0 included). Writes nothing the caller owns. */
 FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p);
 
 /* ---- The volume ------------------------------------------------------------ */
@@ -333,6 +345,32 @@ FFSEG_API ffseg_status ffseg_extract_mesh(const ffseg_engine* e, uint32_t object
  * OBJECT_OUT_OF_RANGE, NULL_POINTER. On failure mask is untouched. */
 FFSEG_API ffseg_status ffseg_rasterize(const ffseg_engine* e, uint32_t object, uint8_t* mask,
                                        const int64_t strides[3]);
+
+/* Since 0.3.0. Writes object `object`'s bounding region (thesis 6.2, fig.
+ * 6.4) into mask: 1 for every voxel of the volume grid that the object owns,
+ * 0 for every other voxel. While two or more objects are placed, each
+ * ffseg_step first brings every object's region up to date: fast marching
+ * from the voxels inside its mesh, within its mesh's bounding box grown by
+ * params.region_width_mm, at a speed given by the object's intensity model
+ * (binary targets: 1 on non-zero voxels, 0 elsewhere); a voxel belongs to the
+ * object whose front reaches it first (ties: the lower object index), and to
+ * none when no front reaches it. So the regions of distinct objects never
+ * share a voxel, and each object's mesh deforms within its own region (a
+ * vertex whose search meets another object's region is a border vertex,
+ * counted in ffseg_step_info.border_vertices). The mask shows the regions
+ * that the last step used: a region is recomputed every
+ * params.region_interval steps and whenever its mesh nears its box's faces,
+ * not after every step. Layout as ffseg_rasterize: voxel (i,j,k) is
+ * mask[i*strides[0] + j*strides[1] + k*strides[2]], strides == NULL means
+ * contiguous, and the caller guarantees the buffer covers the grid.
+ * Errors: NULL_POINTER (mask), OBJECT_OUT_OF_RANGE, MISUSE: no volume, object
+ * not placed, or the object has no region yet: a one-object engine
+ * (max_objects = 1) has none, and neither has an engine before its first
+ * ffseg_step with two or more objects placed, nor an object since
+ * ffseg_init_sphere placed it again or ffseg_set_volume changed the volume
+ * (until the next step). On failure mask is untouched. */
+FFSEG_API ffseg_status ffseg_region_mask(const ffseg_engine* e, uint32_t object, uint8_t* mask,
+                                         const int64_t strides[3]);
 
 #ifdef __cplusplus
 }

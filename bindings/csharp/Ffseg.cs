@@ -97,6 +97,10 @@ public struct Params {
   public double BinSeparation;
   public uint PartialVolumeSteps;
   public uint Reserved1;
+  public double RegionWidthMm;   // several objects (0.3.0): 0 = automatic, 10 mm
+  public double BorderWeight;
+  public uint RegionInterval;
+  public uint Reserved2;
 
   public static Params Default() {
     Params p;
@@ -154,6 +158,7 @@ internal static class Native {
                                                                uint[] tris, UIntPtr triCapacity,
                                                                out UIntPtr nVertices, out UIntPtr nTris);
   [DllImport(Lib)] public static extern int ffseg_rasterize(IntPtr e, uint obj, byte[] mask, IntPtr strides);
+  [DllImport(Lib)] public static extern int ffseg_region_mask(IntPtr e, uint obj, byte[] mask, IntPtr strides);
 }
 
 // A failed call: its status (Status.Err*) and ffseg_last_error's message.
@@ -327,13 +332,27 @@ public sealed class Engine : IDisposable {
   // 1 for every voxel inside the object's mesh, 0 elsewhere; mask is
   // contiguous, i fastest, and must hold every voxel of the volume.
   public void Rasterize(uint obj, byte[] mask) {
+    IntPtr e = CheckMask("rasterize", mask);
+    Check(Native.ffseg_rasterize(e, obj, mask, IntPtr.Zero), e);
+  }
+
+  // 1 for every voxel the object's bounding region owns (thesis 6.2, fig.
+  // 6.4; distinct objects' regions never overlap), 0 elsewhere; mask as for
+  // Rasterize. Regions exist once Step has run with two or more objects
+  // placed; before that, and with MaxObjects = 1, ErrMisuse.
+  public void RegionMask(uint obj, byte[] mask) {
+    IntPtr e = CheckMask("region_mask", mask);
+    Check(Native.ffseg_region_mask(e, obj, mask, IntPtr.Zero), e);
+  }
+
+  IntPtr CheckMask(string what, byte[] mask) {
     IntPtr e = Live();
     if (mask == null) throw new ArgumentNullException("mask");
-    if (!pinned_.IsAllocated) throw new FfsegException(Status.ErrMisuse, "rasterize: no volume set");
+    if (!pinned_.IsAllocated) throw new FfsegException(Status.ErrMisuse, what + ": no volume set");
     if (mask.LongLength < voxels_)
       throw new FfsegException(Status.ErrBufferTooSmall,
-                               "rasterize: mask holds " + mask.LongLength + " voxels, the volume has " + voxels_);
-    Check(Native.ffseg_rasterize(e, obj, mask, IntPtr.Zero), e);
+                               what + ": mask holds " + mask.LongLength + " voxels, the volume has " + voxels_);
+    return e;
   }
 }
 

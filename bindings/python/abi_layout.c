@@ -25,6 +25,8 @@ int main(void) {
   F(ffseg_params, bin_min_count); F(ffseg_params, smoothing_kappa); F(ffseg_params, intensity_gamma);
   F(ffseg_params, sigma_floor_fraction); F(ffseg_params, bin_radius); F(ffseg_params, bin_separation);
   F(ffseg_params, partial_volume_steps); F(ffseg_params, reserved1);
+  F(ffseg_params, region_width_mm); F(ffseg_params, border_weight); F(ffseg_params, region_interval);
+  F(ffseg_params, reserved2);
 
   S(ffseg_volume);
   F(ffseg_volume, struct_size); F(ffseg_volume, voxel_type); F(ffseg_volume, data);

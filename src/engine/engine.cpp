@@ -222,6 +222,41 @@ Err Engine::rasterize(uint32_t object, uint8_t* mask, const int64_t strides[3]) 
   return Err::ok;
 }
 
+Err Engine::region_mask(uint32_t object, uint8_t* mask, const int64_t strides[3]) const {
+  const Err oe = check_object(object, true);
+  if (oe != Err::ok) return oe;
+  char* msg = const_cast<char*>(msg_);
+  if (!vol_.valid()) {
+    std::snprintf(msg, kMsgLen, "region_mask: no volume set");
+    return Err::misuse;
+  }
+  if (region_maps_ == nullptr) {
+    std::snprintf(msg, kMsgLen,
+                  "region_mask: a one-object engine (max_objects = 1) has no bounding regions");
+    return Err::misuse;
+  }
+  const RegionMap& r = region_maps_[object];
+  if (!r.valid) {
+    std::snprintf(msg, kMsgLen,
+                  "region_mask: object %u has no bounding region yet (regions are computed by ffseg_step "
+                  "while two or more objects are placed, and again after ffseg_init_sphere or ffseg_set_volume)",
+                  object);
+    return Err::misuse;
+  }
+  const int64_t* D = vol_.dims();
+  const int64_t s[3] = {strides ? strides[0] : 1, strides ? strides[1] : D[0], strides ? strides[2] : D[0] * D[1]};
+  for (int64_t k = 0; k < D[2]; ++k)
+    for (int64_t j = 0; j < D[1]; ++j)
+      for (int64_t i = 0; i < D[0]; ++i) mask[i * s[0] + j * s[1] + k * s[2]] = 0;
+  // Only voxels of the object's own box can be its (time_at is +inf beyond).
+  const RegionSet set = regions();
+  for (int64_t k = r.lo[2]; k < r.lo[2] + r.n[2]; ++k)
+    for (int64_t j = r.lo[1]; j < r.lo[1] + r.n[1]; ++j)
+      for (int64_t i = r.lo[0]; i < r.lo[0] + r.n[0]; ++i)
+        if (set.owner(i, j, k) == object) mask[i * s[0] + j * s[1] + k * s[2]] = 1;
+  return Err::ok;
+}
+
 }  // namespace ffseg
 
 // ---- one deformation step (thesis Algorithm 1) ---------------------------------

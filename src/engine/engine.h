@@ -33,6 +33,10 @@ class Engine {
   Err extract_mesh(uint32_t object, float* xyz, size_t xyz_cap, uint32_t* tris, size_t tri_cap,
                    size_t* nv, size_t* nt) const;
   Err rasterize(uint32_t object, uint8_t* mask, const int64_t strides[3]) const;
+  // 1 where object owns the voxel (regions().owner), 0 elsewhere, over the
+  // whole grid (strides as rasterize's). Misuse while the object has no
+  // region: a one-object engine, or no step yet with two objects placed.
+  Err region_mask(uint32_t object, uint8_t* mask, const int64_t strides[3]) const;
   // One deformation step of every placed, unconverged object (Algorithm 1):
   // each stage runs over all of them before the next.
   Err step(StepReport* report);

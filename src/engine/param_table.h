@@ -6,7 +6,8 @@
 // declaration (the header must stand alone); tests/engine/test_params.cpp
 // checks that it, this table and the CLI agree field by field.
 //
-// FFSEG_PARAM_TABLE(X) calls X once per field, in ffseg_params' order:
+// FFSEG_PARAM_TABLE(X) calls X once per field, in ffseg_params' order (the
+// reserved fields, which the C API refuses when non-zero, are not in it):
 //   X(name, ctype, kind, default, lo, hi, bounds, unit, doc)
 //   ctype   the field's type in ffseg::Params
 //   kind    U32 or F64: the field's type in ffseg_params
@@ -51,7 +52,13 @@
   X(bin_radius, double, F64, 0.0, 0, 1e9, CC, "intensity", "R of Algorithm 2; 0 = 2 x the sigma floor")   \
   X(bin_separation, double, F64, 0.0, 0, 1e9, CC, "intensity", "S of Algorithm 2; 0 = 4 x the sigma floor") \
   X(partial_volume_steps, uint32_t, U32, 4, 0, 1000, CC, "steps",                                         \
-    "grey levels: steps with partial-volume boundaries after rest; 0 = off")
+    "grey levels: steps with partial-volume boundaries after rest; 0 = off")                              \
+  X(region_width_mm, double, F64, 0.0, 0, 1000, CC, "mm",                                                 \
+    "several objects: w_i, a region's box beyond its mesh (eq. 6.2.6); 0 = automatic, 10 mm")             \
+  X(border_weight, double, F64, 1000.0, 0, 1e9, OC, "",                                                   \
+    "several objects: a border vertex's positional weight, times lambda_p (thesis 6.3)")                  \
+  X(region_interval, uint32_t, U32, 4, 1, 1000, CC, "steps",                                              \
+    "several objects: steps between recomputations of the bounding regions")
 
 namespace ffseg {
 

@@ -29,10 +29,8 @@ struct Params {
   // Colin27 structures only (issue #4); partial_volume_steps = 4 steps of
   // step_size 0.5 cover 1 - 0.5^4 = 94% of a boundary's move.
 
-  // Several objects (thesis chapter 6). Not in the public struct yet.
-  double region_width_mm = 0;   // w_i of eq. 6.2.6-6.2.11; 0: kRegionWidthMm
-  double border_weight = 1000;  // a border vertex's positional weight, times lambda_p
-  uint32_t region_interval = 4; // steps between recomputations of the regions
+  // Several objects (thesis chapter 6): region_width_mm is w_i of eq.
+  // 6.2.6-6.2.11, 0 meaning kRegionWidthMm.
   double region_width() const { return region_width_mm > 0 ? region_width_mm : kRegionWidthMm; }
   // The automatic w_i: wide enough that a mesh keeps a few steps' motion of
   // room before its region is recomputed (at the latest when it comes

@@ -62,6 +62,14 @@ TEST_CASE("abi: reserved fields are zeroed by init_default and must stay 0") {
   // A caller whose layout ends before reserved1 is not refused for it.
   q.struct_size = uint32_t(offsetof(ffseg_params, reserved1));
   CHECK(ffseg_set_params(eb.e, &q) == FFSEG_OK);
+  CHECK(p.reserved2 == 0u);
+  q = p;
+  q.reserved2 = 1;
+  CHECK(ffseg_set_params(eb.e, &q) == FFSEG_ERR_INVALID_ARGUMENT);
+  CHECK(std::string(ffseg_last_error(eb.e)).find("reserved2") != std::string::npos);
+  // A 0.2 caller (ending after reserved1) is not refused for reserved2.
+  q.struct_size = uint32_t(offsetof(ffseg_params, region_width_mm));
+  CHECK(ffseg_set_params(eb.e, &q) == FFSEG_OK);
 }
 
 TEST_CASE("abi: out-parameters on failure are what ffseg.h says") {

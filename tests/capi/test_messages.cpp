@@ -86,6 +86,8 @@ TEST_CASE("every failing engine call names itself in ffseg_last_error(NULL)") {
   CHECK(std::string(ffseg_last_error(nullptr)) == ffseg_last_error(eb.e));
   CHECK(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) < 0);
   CHECK(has(ffseg_last_error(nullptr), "rasterize"));
+  CHECK(ffseg_region_mask(eb.e, 0, mask.data(), nullptr) < 0);
+  CHECK(has(ffseg_last_error(nullptr), "region_mask"));
   CHECK(ffseg_set_volume(eb.e, nullptr) < 0);
   CHECK(has(ffseg_last_error(nullptr), "set_volume"));
 }

@@ -79,16 +79,21 @@ struct SmallEngine {
 TEST_CASE("params: the table lists every ffseg_params field, in the header's order") {
   // ffseg.h promises no implicit padding, so consecutive fields touch: the
   // first field follows struct_size, each next one starts where the previous
-  // ends, and only reserved1 (4 bytes) follows the last. A field added to the
-  // header but not to the table (or the reverse, or two swapped) breaks this.
+  // ends, except that the 0.2 layout's last field, reserved1 (4 bytes), sits
+  // between partial_volume_steps and the 0.3 fields, and reserved2 (4 bytes)
+  // follows the last. A field added to the header but not to the table (or
+  // the reverse, or two swapped) breaks this.
   size_t at = sizeof(uint32_t);  // struct_size
   for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
     const ffseg_cli::ParamField f = ffseg_cli::param_field(i);
     CAPTURE(f.spec->name);
+    if (at == offsetof(ffseg_params, reserved1)) at += sizeof(uint32_t);
     CHECK(f.offset == at);
     at = f.offset + kind_size(f.spec->kind);
   }
-  CHECK(at == offsetof(ffseg_params, reserved1));
+  CHECK(offsetof(ffseg_params, reserved1) == offsetof(ffseg_params, partial_volume_steps) + sizeof(uint32_t));
+  CHECK(offsetof(ffseg_params, region_width_mm) == offsetof(ffseg_params, reserved1) + sizeof(uint32_t));
+  CHECK(at == offsetof(ffseg_params, reserved2));
   CHECK(at + sizeof(uint32_t) == sizeof(ffseg_params));
 }
 
@@ -98,6 +103,7 @@ TEST_CASE("params: init_default, the engine's Params and the table agree on ever
   ffseg_params_init_default(&p);
   CHECK(p.struct_size == sizeof(ffseg_params));
   CHECK(p.reserved1 == 0);
+  CHECK(p.reserved2 == 0);
   const ffseg::Params q;
   for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
     const ffseg_cli::ParamField f = ffseg_cli::param_field(i);
@@ -222,7 +228,7 @@ TEST_CASE("params: include/ffseg.h documents each field with the table's range a
     CAPTURE(s.name);
     const size_t here = decl(s.name, at);
     REQUIRE(here != std::string::npos);  // declared, and after the previous field
-    const size_t next = decl(i + 1 < ffseg::kParamCount ? ffseg::kParamSpecs[i + 1].name : "reserved1", here);
+    const size_t next = decl(i + 1 < ffseg::kParamCount ? ffseg::kParamSpecs[i + 1].name : "reserved2", here);
     REQUIRE(next != std::string::npos);
     const std::string doc = body.substr(here, next - here);
     CAPTURE(doc);

@@ -359,17 +359,29 @@ class Engine:
         """uint8 mask shaped like the volume: 1 where the voxel centre lies
         inside the object's mesh. `out`: an optional writable uint8 array of
         that shape (any strides) to fill instead."""
+        return self._mask("rasterize", obj, out)
+
+    def region_mask(self, obj, out=None):
+        """uint8 mask shaped like the volume: 1 where the object owns the
+        voxel's bounding region (thesis 6.2, fig. 6.4; the regions of distinct
+        objects never overlap). Regions exist once step() has run with two or
+        more objects placed; before that, and in a one-object engine, this
+        raises Error (FFSEG_ERR_MISUSE). `out` as for rasterize."""
+        return self._mask("region_mask", obj, out)
+
+    def _mask(self, what, obj, out):
         h = self._handle()
         if self._shape is None:
-            raise Error(-8, "no volume: call set_volume first", "rasterize")
+            raise Error(-8, "no volume: call set_volume first", what)
         if out is None:
             out = _np.zeros(self._shape, dtype=_np.uint8)
         elif (not isinstance(out, _np.ndarray) or out.dtype != _np.uint8 or
               tuple(out.shape) != self._shape or not out.flags.writeable):
-            raise Error(-1, f"out must be a writable uint8 array of shape {self._shape}", "rasterize")
+            raise Error(-1, f"out must be a writable uint8 array of shape {self._shape}", what)
         strides = (_C.c_int64 * 3)(*out.strides)
         ptr = _C.cast(_C.c_void_p(out.__array_interface__["data"][0]), _C.POINTER(_C.c_uint8))
-        _check(_lib.ffseg_rasterize(h, _u32(obj, "object"), ptr, strides), "ffseg_rasterize", h)
+        fn = getattr(_lib, "ffseg_" + what)
+        _check(fn(h, _u32(obj, "object"), ptr, strides), "ffseg_" + what, h)
         return out
 
 

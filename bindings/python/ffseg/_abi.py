@@ -67,6 +67,10 @@ class Params(C.Structure):
         ("bin_separation", C.c_double),
         ("partial_volume_steps", C.c_uint32),
         ("reserved1", C.c_uint32),
+        ("region_width_mm", C.c_double),
+        ("border_weight", C.c_double),
+        ("region_interval", C.c_uint32),
+        ("reserved2", C.c_uint32),
     ]
 
 
@@ -126,6 +130,7 @@ def bind(lib):
         "ffseg_extract_mesh": (st, [C.c_void_p, C.c_uint32, P(C.c_float), C.c_size_t,
                                     P(C.c_uint32), C.c_size_t, P(C.c_size_t), P(C.c_size_t)]),
         "ffseg_rasterize": (st, [C.c_void_p, C.c_uint32, P(C.c_uint8), P(C.c_int64)]),
+        "ffseg_region_mask": (st, [C.c_void_p, C.c_uint32, P(C.c_uint8), P(C.c_int64)]),
     }
     for name, (res, args) in sig.items():
         f = getattr(lib, name)

@@ -187,3 +187,36 @@ def test_segment_several_objects_and_intensity_target():
         ii = np.nonzero(m)[0]
         assert abs(ii.mean() - c) < 1.0
     assert not np.logical_and(*masks).any()
+
+
+def test_region_mask_of_two_objects_in_one_bar():
+    # A binary bar along i with one sphere near each end: after a step the two
+    # bounding regions split the bar, never share a voxel, and each holds its
+    # own mesh's voxels.
+    vol = np.zeros((40, 12, 12), np.uint8)
+    vol[4:36, 3:9, 3:9] = 1
+    with ffseg.Engine(max_objects=2, mesh_resolution=6) as e:
+        e.set_params(target_mode="binary")
+        e.set_volume(vol, affine())
+        e.init_sphere(0, (10.0, 5.5, 5.5), 2.0)
+        e.init_sphere(1, (29.0, 5.5, 5.5), 2.0)
+        with pytest.raises(ffseg.Error) as err:
+            e.region_mask(0)  # no step yet: no region
+        assert err.value.status == -8 and "no bounding region yet" in str(err.value)
+        for _ in range(3):
+            e.step()
+        r0, r1 = e.region_mask(0), e.region_mask(1)
+        m0, m1 = e.rasterize(0), e.rasterize(1)
+        out = np.zeros((12, 12, 40), np.uint8).transpose(2, 1, 0)
+        assert e.region_mask(1, out=out) is out and np.array_equal(out, r1)
+    assert r0.shape == vol.shape and r0.dtype == np.uint8
+    assert r0.sum() > 0 and r1.sum() > 0
+    assert not np.logical_and(r0, r1).any()
+    assert np.all(r0[m0 > 0]) and np.all(r1[m1 > 0])
+    with ffseg.Engine(max_objects=1, mesh_resolution=6) as e:
+        e.set_volume(vol, affine())
+        e.init_sphere(0, (10.0, 5.5, 5.5), 2.0)
+        e.step()
+        with pytest.raises(ffseg.Error) as err:
+            e.region_mask(0)
+        assert err.value.status == -8 and "one-object engine" in str(err.value)

@@ -102,6 +102,10 @@ pub struct ffseg_params {
     pub bin_separation: f64,
     pub partial_volume_steps: u32,
     pub reserved1: u32,
+    pub region_width_mm: f64,
+    pub border_weight: f64,
+    pub region_interval: u32,
+    pub reserved2: u32,
 }
 
 #[repr(C)]
@@ -210,6 +214,12 @@ extern "C" {
         n_tris: *mut usize,
     ) -> ffseg_status;
     pub fn ffseg_rasterize(
+        e: *const ffseg_engine,
+        object: u32,
+        mask: *mut u8,
+        strides: *const i64,
+    ) -> ffseg_status;
+    pub fn ffseg_region_mask(
         e: *const ffseg_engine,
         object: u32,
         mask: *mut u8,

@@ -352,18 +352,34 @@ impl<'ws, 'vol> Engine<'ws, 'vol> {
     /// Writes 1 for every voxel of the volume grid inside the object's mesh and
     /// 0 elsewhere; `mask` is contiguous, i fastest, and must hold every voxel.
     pub fn rasterize(&self, object: u32, mask: &mut [u8]) -> Result<()> {
+        self.check_mask("rasterize", mask)?;
+        self.check(unsafe { sys::ffseg_rasterize(self.raw.as_ptr(), object, mask.as_mut_ptr(), ptr::null()) })
+            .map(|_| ())
+    }
+
+    /// Writes 1 for every voxel the object's bounding region owns (thesis 6.2,
+    /// fig. 6.4; distinct objects' regions never overlap) and 0 elsewhere;
+    /// `mask` as for `rasterize`. Regions exist once `step` has run with two
+    /// or more objects placed; before that, and with `max_objects` = 1, the
+    /// call fails with `FFSEG_ERR_MISUSE`.
+    pub fn region_mask(&self, object: u32, mask: &mut [u8]) -> Result<()> {
+        self.check_mask("region_mask", mask)?;
+        self.check(unsafe { sys::ffseg_region_mask(self.raw.as_ptr(), object, mask.as_mut_ptr(), ptr::null()) })
+            .map(|_| ())
+    }
+
+    fn check_mask(&self, what: &str, mask: &[u8]) -> Result<()> {
         let need = self.voxels.ok_or_else(|| Error {
             status: sys::FFSEG_ERR_MISUSE,
-            message: "rasterize: no volume set".into(),
+            message: format!("{}: no volume set", what),
         })?;
         if mask.len() < need {
             return Err(Error {
                 status: sys::FFSEG_ERR_BUFFER_TOO_SMALL,
-                message: format!("rasterize: mask holds {} voxels, the volume has {}", mask.len(), need),
+                message: format!("{}: mask holds {} voxels, the volume has {}", what, mask.len(), need),
             });
         }
-        self.check(unsafe { sys::ffseg_rasterize(self.raw.as_ptr(), object, mask.as_mut_ptr(), ptr::null()) })
-            .map(|_| ())
+        Ok(())
     }
 
     pub fn as_raw(&self) -> *mut sys::ffseg_engine {
