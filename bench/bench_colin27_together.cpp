@@ -20,8 +20,6 @@
 
 #include "../tests/support/mesh_check.h"
 #include "../tests/test_util.h"
-#include "../capi/capi_internal.h"  // engine_of(): the region parameters are not public yet
-#include "engine.h"
 #include "ffseg.h"
 #include "metrics.h"
 #include "nifti.h"
@@ -108,16 +106,11 @@ Outcome run(const ffseg_tools::NiftiImage& t1, const ffseg_tools::NiftiImage& aa
   ffseg_params p;
   ffseg_params_init_default(&p);
   p.target_mode = FFSEG_TARGET_INTENSITY;
+  if (g_width > 0) p.region_width_mm = g_width;
+  if (g_border > 0) p.border_weight = g_border;
+  if (g_interval > 0) p.region_interval = g_interval;
   ffseg_volume v = volume_of(t1);
   bool ok = ffseg_set_params(e, &p) == FFSEG_OK && ffseg_set_volume(e, &v) == FFSEG_OK;
-  if (ok && (g_width > 0 || g_border > 0 || g_interval > 0)) {
-    ffseg::Engine* en = ffseg::capi::engine_of(e);
-    ffseg::Params q = en->params();
-    if (g_width > 0) q.region_width_mm = g_width;
-    if (g_border > 0) q.border_weight = g_border;
-    if (g_interval > 0) q.region_interval = g_interval;
-    ok = en->set_params(q) == ffseg::Err::ok;
-  }
   for (uint32_t o = 0; o < k && ok; ++o) {
     double c[3], r = 0;
     ok = protocol_sphere(t1, aal, labels[o], c, &r) && ffseg_init_sphere(e, o, c, r) == FFSEG_OK;
