@@ -1,12 +1,13 @@
 // libFuzzer target "calls": a random sequence of C API calls on one engine.
 //
-// Input: a config block (max_objects, mesh_resolution, max_roi_voxels and the
-// workspace size and alignment offered to ffseg_create, all allowed to be
-// wrong), then one operation per byte group until the input ends: set_params
-// with extreme or non-finite fields, set_volume with good or corrupted
-// descriptors, init_sphere, step, extract_mesh into short or exact buffers,
-// rasterize, sample, destroy and re-create, status/message queries. Object
-// indices come from the input and are often out of range.
+// Input: a config block (max_objects, mesh_resolution, max_roi_voxels,
+// target_mode (binary-only or not), reserved fields, and the workspace size
+// and alignment offered to ffseg_create, all allowed to be wrong), then one
+// operation per byte group until the input ends: set_params with extreme or
+// non-finite fields, set_volume with good or corrupted descriptors,
+// init_sphere, step, extract_mesh into short or exact buffers, rasterize,
+// sample, destroy and re-create, status/message queries. Object indices come
+// from the input and are often out of range.
 //
 // Every call must return a documented status; every refusal must leave the
 // engine usable: after the sequence a clean segmentation still works (params
@@ -19,9 +20,11 @@
 // would exceed it is skipped (the final check then verifies everything but
 // the step). The config block gives meshes of n <= 4 and up to 4 objects; a
 // raw config asking for objects * n^2 > kCreateBudget is created only where
-// creation must fail, and the small fallback engine runs the sequence. So one object at n = 2 steps
+// creation must fail, and the small fallback engine runs the sequence (its six
+// configs are created once and restored, fuzz_workspace.h; the input's own
+// config is created by ffseg_create every time). So one object at n = 2 steps
 // once per input, in the sequence or in the final check: with ASan and UBSan
-// an engine's first step at n = 2 costs about 0.65 ms of CPU, twice all the
+// an engine's first step at n = 2 costs about 0.5 ms of CPU, more than all the
 // rest of an input. Larger and multi-object steps are fuzz_volume's (n <= 4)
 // and the unit tests' part; every call and every refusal stays reachable.
 #include <cmath>
@@ -45,7 +48,7 @@ constexpr uint64_t kWorkBudget = 4;
 // objects * n^2 of the largest engine created (the config block's 4 x 4^2).
 constexpr uint64_t kCreateBudget = 64;
 // Destroy-and-re-create operations per input.
-constexpr int kMaxRecreate = 2;
+constexpr int kMaxRecreate = 1;
 
 [[noreturn]] void finding(const char* what, long long st) {
   std::fprintf(stderr, "fuzz_calls: %s (%lld)\n", what, st);
@@ -157,10 +160,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const uint8_t cflags = in.take<uint8_t>();
   cfg.max_objects = (cflags & 1) ? pick_u32(in) : 1 + in.take<uint8_t>() % 4;
   cfg.mesh_resolution = (cflags & 2) ? pick_u32(in) : 2 + in.take<uint8_t>() % 3;
-  if (cflags & 4) cfg.max_roi_voxels = in.take<int64_t>();
-  else cfg.max_roi_voxels = int64_t(1) << (8 + in.take<uint8_t>() % 12);
+  if (cflags & 4) {
+    cfg.max_roi_voxels = in.take<int64_t>();
+  } else {
+    const uint8_t roi = in.take<uint8_t>();  // bit7: a binary-only engine
+    cfg.max_roi_voxels = int64_t(1) << (8 + (roi & 127) % 12);
+    if (roi & 128) cfg.target_mode = FFSEG_TARGET_BINARY;
+  }
   if (cflags & 8) cfg.struct_size = in.take<uint8_t>();
-  if (cflags & 16) cfg.reserved0 = 1;
+  if (cflags & 16) {  // a field that must be refused (unless struct_size hides it)
+    const uint8_t bad = in.take<uint8_t>();
+    if (bad % 3 == 0) cfg.reserved0 = 1;
+    else if (bad % 3 == 1) cfg.reserved1 = 1;
+    else cfg.target_mode = pick_u32(in) | 2;
+  }
   const int64_t size_delta = int64_t(in.take<int8_t>()) * ((cflags & 32) ? 4096 : 1);
   const size_t misalign = (cflags & 64) ? 1 + in.take<uint8_t>() % 63 : 0;
 
@@ -196,9 +209,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   if (e == nullptr) {
     // Fall back to a small valid engine so the call sequence still runs.
-    cfg = valid_config(1 + (cflags >> 7), 2 + (cflags & 3) % 3);
+    // Six configs, each created once and restored since (fuzz_workspace.h):
+    // their creation is the same for every input.
+    static ffseg_fuzz::CreatedEngine fallback[2][3];
+    const uint32_t fb_objects = 1 + (cflags >> 7), fb_n = 2 + (cflags & 3) % 3;
+    cfg = valid_config(fb_objects, fb_n);
     if (ffseg_workspace_size(&cfg, &need) != FFSEG_OK) finding("fallback config refused", 0);
-    if (ffseg_create(&cfg, ws.get(need, 0), need, &e) != FFSEG_OK) finding("fallback create failed", 0);
+    ffseg_status st = FFSEG_OK;
+    e = fallback[fb_objects - 1][fb_n - 2].get(cfg, &st);
+    if (st != FFSEG_OK || e == nullptr) finding("fallback create failed", st);
   }
   const uint32_t objects = cfg.max_objects;
   const uint32_t n = cfg.mesh_resolution;
@@ -360,7 +379,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       case 7: {  // destroy, use the stale handle, re-create in the same workspace
         // Creation costs about as much as a step (mesh, Laplacian program):
-        // twice per input at most.
+        // once per input (a second one reached no edge the first does not:
+        // the corpus replays to the same cov).
         if (recreated == kMaxRecreate) break;
         ++recreated;
         ffseg_destroy(e);
