@@ -138,10 +138,16 @@ std::string fmt(const char* f, double v) {
 
 void overlay_palette(size_t k, uint8_t rgb[3]) {
   static const uint8_t pal[12][3] = {
-      {255, 40, 40},  {40, 220, 40},  {60, 140, 255}, {255, 220, 0},  {255, 60, 255}, {0, 230, 230},
-      {255, 140, 0},  {170, 110, 255}, {160, 255, 120}, {255, 150, 170}, {140, 90, 40}, {255, 255, 255}};
+      {255, 40, 40},  {40, 220, 40},  {60, 140, 255}, {255, 60, 255}, {0, 230, 230},   {255, 140, 0},
+      {170, 110, 255}, {160, 255, 120}, {255, 150, 170}, {0, 150, 130}, {140, 90, 40}, {255, 255, 255}};
   std::memcpy(rgb, pal[k % 12], 3);
 }
+
+namespace {
+const uint8_t kTruthRgb[3] = {255, 215, 0};  // yellow: no object's colour
+}
+
+void overlay_truth_colour(uint8_t rgb[3]) { std::memcpy(rgb, kTruthRgb, 3); }
 
 void percentile_window(const std::function<double(size_t)>& value, size_t n, double q_lo,
                        double q_hi, double* lo, double* hi) {
@@ -294,7 +300,7 @@ bool overlay_render(const OverlayVolume& vol, const std::vector<OverlayObject>& 
       // The reference contour of this row's object: yellow dashes straddling
       // its boundary like the object contours, drawn under them.
       if (!objects.empty() && objects[size_t(r)].truth) {
-        static const uint8_t yellow[3] = {255, 215, 0};
+        const uint8_t* yellow = kTruthRgb;
         const uint8_t* tm = objects[size_t(r)].truth;
         std::vector<uint8_t> tin(size_t(W) * size_t(H));
         for (int y = 0; y < H; ++y)

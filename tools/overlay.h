@@ -45,8 +45,11 @@ struct RgbImage {
   std::vector<uint8_t> rgb;  // 3 bytes per pixel, rows top to bottom
 };
 
-// The k-th colour of the overlay palette (distinct, bright; cycles after 12).
+// The k-th colour of the overlay palette (distinct, bright; cycles after 12;
+// none of them close to the reference contour's yellow).
 void overlay_palette(size_t k, uint8_t rgb[3]);
+// The colour of the reference contours (OverlayObject::truth).
+void overlay_truth_colour(uint8_t rgb[3]);
 
 // [lo, hi] = the q_lo and q_hi quantiles of value(0..n-1) (e.g. 0.01, 0.99),
 // estimated on at most ~2 million evenly spaced samples; non-finite values are

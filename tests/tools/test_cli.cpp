@@ -22,6 +22,7 @@
 #include "ffseg.h"
 #include "mesh_io.h"
 #include "nifti.h"
+#include "overlay.h"
 #include "report_json.h"
 
 namespace fs = std::filesystem;
@@ -286,6 +287,124 @@ TEST_CASE("cli: two objects, voxel spheres, VTK meshes, default labels") {
   const Json* c2 = (*rep.get("objects"))[1].get("sphere")->get("center_mm");
   CHECK((*c2)[0].as_number() == doctest::Approx(14.0).epsilon(1e-4));
   CHECK((*c2)[2].as_number() == doctest::Approx(12.0).epsilon(1e-4));
+}
+
+TEST_CASE("cli: several objects segment together: one claim per voxel, Dice as ffseg eval, --regions") {
+  Scratch s;
+  // Two balls touching at x = 1 mm: one blob of non-zero voxels, which the
+  // bounding regions split (binary targets: the fronts meet where they meet).
+  const std::array<double, 4> b1 = {-6.0, 25.0, 12.0, 7.0}, b2 = {8.0, 25.0, 12.0, 7.0};
+  const Balls b = make_balls({b1, b2}, {1, 2});
+  write(s / "pair.nii.gz", b.image);
+  write(s / "truth.nii.gz", b.truth);
+  const Run r = ffseg(s, "segment " + (s / "pair.nii.gz") + " --target binary --sphere -6,25,12,3 --sphere 8,25,12,3 " +
+                             "--mesh-resolution 8 --max-steps 30 --quiet --truth " + (s / "truth.nii.gz") +
+                             " --regions " + (s / "regions.nii.gz") + " --out " + (s / "out"));
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("2 objects in one engine: bounding regions") != std::string::npos);
+  CHECK(r.out.find("border ") != std::string::npos);
+
+  const Json rep = parse_json(slurp(s / "out/report.json"));
+  REQUIRE(rep.get("objects")->size() == 2);
+  CHECK(rep.get("config")->get("max_objects")->as_number() == 2);  // one engine for both
+  CHECK(rep.get("time_ms")->get("stages")->get("regions")->as_number() > 0);
+  CHECK(rep.get("outputs")->get("regions")->as_string() == s / "regions.nii.gz");
+  REQUIRE(rep.get("shared_voxels") != nullptr);
+  NiftiImage lab, reg;
+  std::string err;
+  REQUIRE_MESSAGE(nifti_read_file(s / "out/labels.nii.gz", &lab, &err), err);
+  REQUIRE_MESSAGE(nifti_read_file(s / "regions.nii.gz", &reg, &err), err);
+  REQUIRE(reg.data.size() == lab.data.size());
+  size_t count[3] = {0, 0, 0}, region[3] = {0, 0, 0}, outside_region = 0, other = 0;
+  for (size_t i = 0; i < lab.data.size(); ++i) {
+    if (lab.data[i] > 2 || reg.data[i] > 2) ++other;
+    else ++count[lab.data[i]], ++region[reg.data[i]];
+    outside_region += lab.data[i] != 0 && reg.data[i] != 0 && reg.data[i] != lab.data[i];
+  }
+  CHECK(other == 0);
+  CHECK(region[1] > 500);
+  CHECK(region[2] > 500);
+  CHECK(outside_region < (count[1] + count[2]) / 50);  // each mesh within its own region (2% slack)
+  for (size_t k = 0; k < 2; ++k) {
+    const Json& o = (*rep.get("objects"))[k];
+    CAPTURE(k);
+    CHECK(o.get("label")->as_number() == double(k + 1));
+    CHECK(o.get("voxels")->as_number() == double(count[k + 1]));  // the report measures the label map
+    REQUIRE(o.get("border_vertices") != nullptr);
+    REQUIRE(o.get("shared_voxels") != nullptr);
+    CHECK(o.get("metrics")->get("dice")->as_number() > 0.8);
+  }
+  CHECK((*rep.get("objects"))[1].get("border_vertices")->as_number() > 0);  // the two met
+  // ffseg eval on the written label map gives the report's numbers.
+  const Run ev = ffseg(s, "eval " + (s / "out/labels.nii.gz") + " " + (s / "truth.nii.gz") + " --labels 1,2 --json");
+  REQUIRE(ev.code == 0);
+  const Json ej = parse_json(ev.out);
+  for (size_t k = 0; k < 2; ++k) {
+    const Json& e = (*ej.get("labels"))[k];
+    const Json& m = *(*rep.get("objects"))[k].get("metrics");
+    CAPTURE(k);
+    CHECK(e.get("dice")->as_number() == doctest::Approx(m.get("dice")->as_number()).epsilon(1e-12));
+    CHECK(e.get("hd95_mm")->as_number() == doctest::Approx(m.get("hd95_mm")->as_number()).epsilon(1e-12));
+    CHECK(e.get("pred_voxels")->as_number() == double(count[k + 1]));
+  }
+
+  // --regions refusals: one object has no region; an unknown suffix; an existing file.
+  const std::string one = "segment " + (s / "pair.nii.gz") + " --target binary --sphere -6,25,12,3 --quiet ";
+  const Run r1 = ffseg(s, one + "--regions " + (s / "r1.nii.gz") + " --out " + (s / "o1"));
+  CHECK(r1.code == 2);
+  CHECK(r1.err.find("two or more objects") != std::string::npos);
+  const Run r2 = ffseg(s, one + "--sphere 8,25,12,3 --regions " + (s / "r2.png") + " --out " + (s / "o2"));
+  CHECK(r2.code == 2);
+  CHECK(r2.err.find(".nii.gz") != std::string::npos);
+  const Run r3 = ffseg(s, one + "--sphere 8,25,12,3 --regions " + (s / "regions.nii.gz") + " --out " + (s / "o3"));
+  CHECK(r3.code == 2);
+  CHECK(r3.err.find("--force") != std::string::npos);
+  CHECK_FALSE(fs::exists(s / "o1"));
+  CHECK_FALSE(fs::exists(s / "o2"));
+  CHECK_FALSE(fs::exists(s / "o3"));
+}
+
+TEST_CASE("cli: labels default to the --sphere-from-label label, else the object's number") {
+  Scratch s;
+  const std::array<double, 4> b1 = {-8.0, 25.0, 12.0, 7.0}, b2 = {14.0, 29.0, 12.0, 6.0};
+  const Balls b = make_balls({b1, b2}, {2, 7});
+  write(s / "two.nii.gz", b.image);
+  write(s / "lab.nii.gz", b.truth);
+  // Object 1 comes from label 2, object 2 from the command line: 2 is taken, so object 2 gets 3.
+  const Run r = ffseg(s, "segment " + (s / "two.nii.gz") + " --target binary --sphere-from-label " + (s / "lab.nii.gz") +
+                             ":2 --sphere 14,29,12,3 --mesh-resolution 6 --max-steps 10 --quiet --out " + (s / "out"));
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  const Json rep = parse_json(slurp(s / "out/report.json"));
+  CHECK((*rep.get("objects"))[0].get("label")->as_number() == 2);
+  CHECK((*rep.get("objects"))[1].get("label")->as_number() == 3);
+  NiftiImage lab;
+  std::string err;
+  REQUIRE_MESSAGE(nifti_read_file(s / "out/labels.nii.gz", &lab, &err), err);
+  size_t n2 = 0, n3 = 0;
+  for (uint8_t v : lab.data) n2 += v == 2, n3 += v == 3;
+  CHECK(n2 > 300);
+  CHECK(n3 > 300);
+  // The same label twice is refused.
+  const Run twice = ffseg(s, "segment " + (s / "two.nii.gz") + " --target binary --sphere-from-label " +
+                                 (s / "lab.nii.gz") + ":2 --sphere-from-label " + (s / "lab.nii.gz") + ":2 --out " +
+                                 (s / "o2"));
+  CHECK(twice.code == 2);
+  CHECK(twice.err.find("both come from label 2") != std::string::npos);
+}
+
+TEST_CASE("overlay: every object colour differs from the others and from the reference contour's yellow") {
+  uint8_t truth[3], c[12][3];
+  overlay_truth_colour(truth);
+  for (size_t k = 0; k < 12; ++k) {
+    overlay_palette(k, c[k]);
+    const double d = std::sqrt(std::pow(c[k][0] - truth[0], 2) + std::pow(c[k][1] - truth[1], 2) +
+                               std::pow(c[k][2] - truth[2], 2));
+    CAPTURE(k);
+    CHECK(d > 60);
+    for (size_t j = 0; j < k; ++j) CHECK(std::memcmp(c[j], c[k], 3) != 0);
+  }
 }
 
 TEST_CASE("cli: usage errors exit 2, bad input exits 3, and leave nothing behind") {

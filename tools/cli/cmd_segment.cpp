@@ -20,171 +20,13 @@
 #include "mesh_io.h"
 #include "metrics.h"
 #include "overlay.h"
-#include "param_args.h"
+#include "segment_options.h"
+#include "segment_outputs.h"
 #include "report_json.h"
 
 namespace ffseg_cli {
 
 namespace {
-
-// The target mode used when --target is not given. FFSEG_TARGET_INTENSITY is
-// the goal; an engine without it answers FFSEG_ERR_NOT_IMPLEMENTED, which is
-// reported with a hint to use --target binary.
-constexpr uint32_t kDefaultTarget = FFSEG_TARGET_INTENSITY;
-constexpr uint32_t kDefaultMeshResolution = 33;
-constexpr int64_t kDefaultMaxSteps = 200;
-constexpr int64_t kMaxRoiCap = int64_t(1) << 26;
-
-const char* target_name(uint32_t t) {
-  return t == FFSEG_TARGET_BINARY ? "binary" : t == FFSEG_TARGET_INTENSITY ? "intensity" : "unknown";
-}
-
-// The parameters' names, comma-separated, in the table's order.
-std::string param_names(const char* sep = ", ") {
-  std::string s;
-  for (unsigned i = 0; i < ffseg::kParamCount; ++i) s += std::string(i ? sep : "") + ffseg::kParamSpecs[i].name;
-  return s;
-}
-
-uint32_t parse_target(const std::string& v, const std::string& what) {
-  if (v == "binary") return FFSEG_TARGET_BINARY;
-  if (v == "intensity") return FFSEG_TARGET_INTENSITY;
-  return uint32_t(parse_int(v, what + " (binary, intensity or a number)", 0, 0xFFFFFFFFLL));
-}
-
-// --param NAME=VALUE: any row of the parameter table (param_args.h); a value
-// outside the table's range is refused here, naming the range.
-void set_param(ffseg_params* p, const std::string& assignment) {
-  const size_t eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0)
-    fail(kExitUsage, "--param: expected NAME=VALUE, got '" + assignment + "'");
-  const std::string name = assignment.substr(0, eq), value = assignment.substr(eq + 1);
-  for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
-    const ParamField f = param_field(i);
-    if (name != f.spec->name) continue;
-    char* base = reinterpret_cast<char*>(p) + f.offset;
-    const std::string what = "--param " + name;
-    double v;
-    if (name == "target_mode") v = parse_target(value, what);
-    else if (f.spec->kind == ffseg::ParamKind::U32) v = double(parse_int(value, what, 0, 0xFFFFFFFFLL));
-    else v = parse_double(value, what);
-    if (!ffseg::param_in_range(*f.spec, v)) {
-      char range[48];
-      ffseg::param_range_text(*f.spec, range, sizeof range);
-      fail(kExitUsage, what + ": " + value + " is outside " + range +
-                           (f.spec->unit[0] ? std::string(" ") + f.spec->unit : std::string()) + " (" + f.spec->doc + ")");
-    }
-    if (f.spec->kind == ffseg::ParamKind::U32) {
-      const uint32_t u = uint32_t(v);
-      std::memcpy(base, &u, sizeof u);
-    } else {
-      std::memcpy(base, &v, sizeof v);
-    }
-    return;
-  }
-  fail(kExitUsage, "--param: unknown parameter '" + name + "' (known: " + param_names() + ")");
-}
-
-ffseg_tools::Json params_json(const ffseg_params& p) {
-  ffseg_tools::Json j = ffseg_tools::Json::object();
-  for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
-    const ParamField f = param_field(i);
-    const char* base = reinterpret_cast<const char*>(&p) + f.offset;
-    if (f.spec->kind == ffseg::ParamKind::U32) {
-      uint32_t v;
-      std::memcpy(&v, base, sizeof v);
-      j.set(f.spec->name, v);
-    } else {
-      double v;
-      std::memcpy(&v, base, sizeof v);
-      j.set(f.spec->name, v);
-    }
-  }
-  j.set("target_mode_name", target_name(p.target_mode));
-  return j;
-}
-
-struct SphereArg {
-  double c[4];   // centre (mm or voxel) and radius (mm)
-  bool voxel;
-  std::string text;
-  // --sphere-from-label: c[] is filled in once the label map has been read.
-  std::string label_path;  // empty for --sphere / --sphere-voxel
-  int64_t label = 0;
-  std::array<int, 3> label_ijk{};  // the deepest voxel of the label
-  double depth_mm = 0;             // its distance to the label's border
-};
-
-SphereArg parse_sphere(const std::string& opt, const std::string& v) {
-  const std::vector<std::string> parts = split(v, ',');
-  if (parts.size() != 4)
-    fail(kExitUsage, opt + ": expected 4 comma-separated numbers " +
-                         (opt == "--sphere" ? std::string("X,Y,Z,R") : std::string("I,J,K,R")) + ", got '" + v + "'");
-  SphereArg s;
-  for (int k = 0; k < 4; ++k) s.c[k] = parse_double(parts[size_t(k)], opt);
-  if (!(s.c[3] > 0)) fail(kExitUsage, opt + ": the radius must be > 0 mm, got " + parts[3]);
-  s.voxel = opt == "--sphere-voxel";
-  s.text = opt + " " + v;
-  return s;
-}
-
-// --sphere-from-label LABELS:L (the last ':' separates the label, so the path may hold ':').
-SphereArg parse_sphere_from_label(const std::string& opt, const std::string& v) {
-  const size_t colon = v.rfind(':');
-  if (colon == std::string::npos || colon == 0 || colon + 1 == v.size())
-    fail(kExitUsage, opt + ": expected LABELS.nii.gz:L (a label map and a label number), got '" + v + "'");
-  SphereArg s;
-  std::fill(s.c, s.c + 4, 0.0);
-  s.voxel = false;
-  s.text = opt + " " + v;
-  s.label_path = v.substr(0, colon);
-  s.label = parse_int(v.substr(colon + 1), opt + " label", 1, 2147483647LL);
-  return s;
-}
-
-// The evaluation-protocol sphere (PEERS.md) of every --sphere-from-label object:
-// centre = the label voxel farthest from the label's border (Euclidean distance
-// in mm; beyond the grid counts as outside), radius = half that distance, the
-// centre taken to world mm with the label map's own affine. Each label map is
-// read once; `known` holds maps already in memory (the --truth map), by path.
-void resolve_label_spheres(std::vector<SphereArg>* spheres, const ffseg_tools::NiftiImage& img,
-                           const std::string& volume_path,
-                           std::map<std::string, const ffseg_tools::NiftiImage*> known, bool quiet) {
-  std::vector<std::unique_ptr<ffseg_tools::NiftiImage>> owned;
-  for (SphereArg& s : *spheres) {
-    if (s.label_path.empty()) continue;
-    const ffseg_tools::NiftiImage*& lm = known[s.label_path];
-    if (!lm) {
-      owned.push_back(std::make_unique<ffseg_tools::NiftiImage>(read_image(s.label_path)));
-      lm = owned.back().get();
-    }
-    if (lm->dims[0] != img.dims[0] || lm->dims[1] != img.dims[1] || lm->dims[2] != img.dims[2])
-      fail(kExitInput, "grids differ: dimensions differ (" + std::to_string(img.dims[0]) + "x" +
-                           std::to_string(img.dims[1]) + "x" + std::to_string(img.dims[2]) + " vs " +
-                           std::to_string(lm->dims[0]) + "x" + std::to_string(lm->dims[1]) + "x" +
-                           std::to_string(lm->dims[2]) + ") between " + volume_path +
-                           " and --sphere-from-label " + s.label_path);
-    size_t count = 0;
-    const std::vector<uint8_t> mask = label_mask(*lm, s.label, &count);
-    if (count == 0 || !ffseg_tools::find_deepest_voxel(mask.data(), lm->dims, lm->spacing, &s.label_ijk, &s.depth_mm))
-      fail(kExitUsage, "--sphere-from-label: label " + std::to_string(s.label) + " has no voxel in " + s.label_path);
-    const double ijk[3] = {double(s.label_ijk[0]), double(s.label_ijk[1]), double(s.label_ijk[2])};
-    const std::array<double, 3> centre = voxel_to_world(lm->index_to_world, ijk);
-    for (int a = 0; a < 3; ++a) s.c[a] = centre[size_t(a)];
-    s.c[3] = s.depth_mm / 2;
-    if (!quiet)
-      std::fprintf(stderr, "ffseg: sphere from label %lld: centre (%s, %s, %s) mm, radius %s mm\n",
-                   static_cast<long long>(s.label), format_double(s.c[0]).c_str(), format_double(s.c[1]).c_str(),
-                   format_double(s.c[2]).c_str(), format_double(s.c[3]).c_str());
-  }
-}
-
-bool valid_name(const std::string& n) {
-  if (n.empty() || n.size() > 100 || n[0] == '.' || n[0] == '-') return false;
-  for (char c : n)
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) return false;
-  return true;
-}
 
 // Milliseconds rounded to the microsecond (for the report).
 double ms(double seconds) { return std::round(seconds * 1e6) / 1000.0; }
@@ -203,6 +45,20 @@ struct Workspace {
   }
 };
 
+// A temporary file removed on scope exit unless committed.
+struct TempFile {
+  std::string path;
+  bool keep = false;
+  ~TempFile() {
+    if (!path.empty() && !keep) std::remove(path.c_str());
+  }
+};
+
+bool ends_with(const std::string& s, const char* suffix) {
+  const size_t n = std::strlen(suffix);
+  return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
+}
+
 // A temporary output directory removed on scope exit unless committed.
 struct TempDir {
   std::string path;
@@ -211,11 +67,6 @@ struct TempDir {
     if (!path.empty() && !keep) remove_tree(path);
   }
 };
-
-[[noreturn]] void engine_fail(const ffseg_engine* e, ffseg_status st, const std::string& what) {
-  const std::string detail = ffseg_last_error(e);
-  fail(kExitEngine, what + ": " + ffseg_status_string(st) + (detail.empty() ? "" : " (" + detail + ")"));
-}
 
 // Progress on stderr: one updating line on a terminal, a line every 10 steps otherwise.
 class Progress {
@@ -283,93 +134,10 @@ const char* kStageNames[FFSEG_STAGE_COUNT] = {"search",   "flips",    "diffusion
 
 }  // namespace
 
-namespace {
-const char* const kSegmentUsageText =
-    "usage: ffseg segment VOLUME (--sphere X,Y,Z,R | --sphere-voxel I,J,K,R |\n"
-    "                             --sphere-from-label LABELS:L)... --out DIR [options]\n"
-    "\n"
-    "Places one sphere mesh per --sphere / --sphere-voxel / --sphere-from-label\n"
-    "(object 1, 2, ... in the order given), deforms them all until they converge or\n"
-    "--max-steps is reached, and writes into DIR:\n"
-    "  NAME.ply        each object's closed triangle mesh in world mm (format: --mesh-format)\n"
-    "  labels.nii.gz   label map on the input grid: object k -> label k (or its\n"
-    "                  --truth-labels number); where objects overlap the first wins;\n"
-    "                  labels.nrrd / labels.mha for NRRD / MetaImage input\n"
-    "  overlay.png     axial, coronal and sagittal slices through each object's\n"
-    "                  centre with every object's contour in its own colour\n"
-    "                  (with --truth: the reference label as a dashed yellow contour)\n"
-    "  report.json     input, steps, convergence, volume (ml), mesh size, metrics,\n"
-    "                  time per stage, workspace bytes, version, parameters\n"
-    "Everything is written to a temporary directory beside DIR and renamed into\n"
-    "place at the end: a failed or interrupted run leaves nothing behind.\n"
-    "\n"
-    "objects:\n"
-    "  --sphere X,Y,Z,R        centre in world mm, radius in mm; world = RAS (the NIfTI sform,\n"
-    "                          else qform; NRRD, MetaImage and DICOM LPS converted)\n"
-    "  --sphere-voxel I,J,K,R  centre in voxel indices (may be fractional), radius in mm\n"
-    "  --sphere-from-label LABELS:L\n"
-    "                          the evaluation-protocol sphere of label L of the label\n"
-    "                          map LABELS (same dims as VOLUME): centre = the label's\n"
-    "                          voxel farthest from its border (Euclidean, mm), in world\n"
-    "                          mm by LABELS' affine; radius = half that distance.\n"
-    "                          Printed on stderr; report.json gives sphere_source.\n"
-    "  --names a,b,...         file and report names, one per object (default object1, ...);\n"
-    "                          letters, digits, '_', '-', '.'\n"
-    "\n"
-    "output:\n"
-    "  --out DIR               output directory (required); must not exist or be empty\n"
-    "  --force                 replace a non-empty DIR\n"
-    "  --labels-format FMT     nifti, nrrd or metaimage (default: the input's; nifti for DICOM)\n"
-    "  --mesh-format FMT       ply (binary little endian, default), stl (binary), obj, vtk\n"
-    "                          (legacy ASCII POLYDATA)\n"
-    "  -q, --quiet             no progress line (nor the --sphere-from-label lines)\n"
-    "\n"
-    "algorithm:\n"
-    "  --target MODE           binary (non-zero voxels are the object) or intensity\n"
-    "                          (grey-level model); default: @TARGET@\n"
-    "  --mesh-resolution N     each mesh has 6 N^2 vertices; 2..1024 (default 33)\n"
-    "  --max-steps K           stop after K deformation steps (default 200)\n"
-    "  --param NAME=VALUE      set an engine parameter (repeatable); NAME, default, range:\n"
-    "@PARAMS@"
-    "                          (full text: include/ffseg.h)\n"
-    "  --max-roi-voxels N      engine crop budget per object (default: the voxel\n"
-    "                          count, at most 2^26)\n"
-    "\n"
-    "evaluation:\n"
-    "  --truth LABELS          reference label map on the same grid\n"
-    "  --truth-labels a,b,...  its label for each object (default 1, 2, ...); adds\n"
-    "                          Dice, VOE, ASSD and HD95 (mm) per object to the report\n"
-    "\n"
-    "example:\n"
-    "  ffseg segment ch2bet.nii.gz --target binary --sphere 0,-17,19,60 --out brain\n";
-}  // namespace
-
-std::string segment_usage() {
-  std::string s = kSegmentUsageText;
-  const size_t p = s.find("@TARGET@");
-  if (p != std::string::npos) s.replace(p, 8, target_name(kDefaultTarget));
-  // One line per row of the parameter table.
-  std::string rows;
-  for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
-    const ffseg::ParamSpec& f = ffseg::kParamSpecs[i];
-    char line[160], range[48], def[24];
-    ffseg::param_range_text(f, range, sizeof range);
-    // target_mode's default here is --target's, not the engine's.
-    if (std::strcmp(f.name, "target_mode") == 0) std::snprintf(def, sizeof def, "%s", target_name(kDefaultTarget));
-    else std::snprintf(def, sizeof def, "%g", f.default_value);
-    std::snprintf(line, sizeof line, "                            %-22s %-9s %s%s%s\n", f.name, def, range,
-                  f.unit[0] ? " " : "", f.unit);
-    rows += line;
-  }
-  const size_t q = s.find("@PARAMS@");
-  if (q != std::string::npos) s.replace(q, 8, rows);
-  return s;
-}
-
 int cmd_segment(int argc, char** argv) {
   const auto t_start = std::chrono::steady_clock::now();
   Args args(argc, argv, 2);
-  std::string tok, volume_path, out_dir, truth_path, names_opt, truth_labels_opt;
+  std::string tok, volume_path, out_dir, truth_path, names_opt, truth_labels_opt, regions_path;
   std::vector<SphereArg> spheres;
   ffseg_params params;
   ffseg_params_init_default(&params);
@@ -421,6 +189,9 @@ int cmd_segment(int argc, char** argv) {
       const std::string v = args.value(tok);
       if (!ffseg_tools::mesh_format_from_name(v, &mesh_format))
         fail(kExitUsage, "--mesh-format: expected ply, stl, obj or vtk, got '" + v + "'");
+    } else if (tok == "--regions") {
+      regions_path = args.value(tok);
+      if (regions_path.empty()) fail(kExitUsage, "--regions: empty path");
     } else if (tok == "--truth") {
       truth_path = args.value(tok);
     } else if (tok == "--truth-labels") {
@@ -462,7 +233,19 @@ int cmd_segment(int argc, char** argv) {
       fail(kExitUsage, "--truth-labels gives " + std::to_string(labels.size()) + " label(s) for " +
                            std::to_string(nobj) + " object(s)");
   } else {
-    for (uint32_t k = 0; k < nobj; ++k) labels.push_back(int64_t(k) + 1);
+    labels = default_labels(spheres);
+  }
+  if (!regions_path.empty()) {
+    if (nobj < 2)
+      fail(kExitUsage, "--regions: bounding regions exist only for two or more objects (thesis 6.2), got one");
+    if (path_exists(regions_path) && !force)
+      fail(kExitUsage, "--regions " + regions_path + " exists (use --force to replace it)");
+    if (is_directory(regions_path)) fail(kExitUsage, "--regions " + regions_path + " is a directory");
+    if (!ends_with(regions_path, ".nii.gz") && !ends_with(regions_path, ".nii") && !ends_with(regions_path, ".nrrd") &&
+        !ends_with(regions_path, ".mha"))
+      fail(kExitUsage, "--regions " + regions_path + ": the file name must end in .nii.gz, .nii, .nrrd or .mha");
+    if (!is_directory(parent_dir(regions_path)))
+      fail(kExitUsage, "--regions: the parent directory " + parent_dir(regions_path) + " does not exist");
   }
 
   // The output directory: refuse early, before any work.
@@ -579,6 +362,7 @@ int cmd_segment(int argc, char** argv) {
   info.struct_size = sizeof info;
   bool converged = false;
   int64_t steps = 0;
+  std::vector<uint32_t> border_vertices(nobj, 0);  // at the last step each object moved
   const auto t_step0 = std::chrono::steady_clock::now();
   {
     Progress progress(!quiet, max_steps, nobj);
@@ -594,6 +378,9 @@ int cmd_segment(int argc, char** argv) {
       if (st < 0) engine_fail(ws.e, st, "step " + std::to_string(s + 1));
       steps = s + 1;
       for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) stage_us[g] += info.stage_us[g];
+      for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k)
+        if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0)
+          border_vertices[k] = info.border_vertices[k];
       converged = st == FFSEG_CONVERGED;
       progress.step(info, seconds_since(t_step0), converged || steps == max_steps);
       if (converged) break;
@@ -604,47 +391,15 @@ int cmd_segment(int argc, char** argv) {
 
   // ---- results in memory ----------------------------------------------------------
   const auto t_out0 = std::chrono::steady_clock::now();
-  struct ObjectResult {
-    std::vector<float> xyz;
-    std::vector<uint32_t> tris;
-    std::vector<uint8_t> mask;
-    size_t voxels = 0;
-    std::array<int, 3> centre_ijk{};
-  };
-  std::vector<ObjectResult> res(nobj);
-  const double vox_mm3 = voxel_volume_mm3(img);
+  std::vector<ObjectResult> res = read_results(ws.e, img, nobj, centres_mm);
+  size_t shared_voxels = 0;
   for (uint32_t k = 0; k < nobj; ++k) {
-    ObjectResult& r = res[k];
-    size_t nv = 0, nt = 0;
-    st = ffseg_extract_mesh(ws.e, k, nullptr, 0, nullptr, 0, &nv, &nt);
-    if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_extract_mesh");
-    r.xyz.resize(nv * 3);
-    r.tris.resize(nt * 3);
-    st = ffseg_extract_mesh(ws.e, k, r.xyz.data(), nv, r.tris.data(), nt, &nv, &nt);
-    if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_extract_mesh");
-    r.mask.assign(size_t(nvox), 0);
-    st = ffseg_rasterize(ws.e, k, r.mask.data(), nullptr);
-    if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_rasterize");
-    double sum[3] = {0, 0, 0};
-    size_t idx = 0;
-    for (int kk = 0; kk < img.dims[2]; ++kk)
-      for (int j = 0; j < img.dims[1]; ++j)
-        for (int i = 0; i < img.dims[0]; ++i, ++idx)
-          if (r.mask[idx]) {
-            ++r.voxels;
-            sum[0] += i;
-            sum[1] += j;
-            sum[2] += kk;
-          }
-    std::array<double, 3> c;
-    if (r.voxels) {
-      for (int a = 0; a < 3; ++a) c[size_t(a)] = sum[a] / double(r.voxels);
-    } else {
-      c = world_to_voxel(img.index_to_world, centres_mm[k].data());
-    }
-    for (int a = 0; a < 3; ++a)
-      r.centre_ijk[size_t(a)] = std::min(img.dims[a] - 1, std::max(0, int(std::lround(c[size_t(a)]))));
+    res[k].border_vertices = border_vertices[k];
+    shared_voxels += res[k].shared_voxels;
   }
+  ffseg_tools::NiftiImage regions_map;
+  if (!regions_path.empty()) regions_map = region_label_map(ws.e, img, labels);
+  const double vox_mm3 = voxel_volume_mm3(img);
   check_interrupted();
 
   // ---- write everything into a temporary directory --------------------------------
@@ -673,58 +428,12 @@ int cmd_segment(int argc, char** argv) {
   }
   check_interrupted();
 
-  // Label map: object k -> labels[k]; the lowest index wins on overlaps.
-  const int64_t max_label = *std::max_element(labels.begin(), labels.end());
-  const int ltype = max_label <= 255 ? ffseg_tools::kNiftiVoxU8
-                    : max_label <= 65535 ? ffseg_tools::kNiftiVoxU16 : ffseg_tools::kNiftiVoxI32;
-  ffseg_tools::NiftiImage lab = ffseg_tools::nifti_make_label_image(img, ltype);
-  lab.descrip = "ffseg labels";
-  for (uint32_t k = 0; k < nobj; ++k) {
-    const uint8_t* m = res[k].mask.data();
-    for (size_t i = 0; i < size_t(nvox); ++i) {
-      if (!m[i]) continue;
-      switch (ltype) {
-        case ffseg_tools::kNiftiVoxU8:
-          if (!lab.data[i]) lab.data[i] = uint8_t(labels[k]);
-          break;
-        case ffseg_tools::kNiftiVoxU16: {
-          uint16_t* p = reinterpret_cast<uint16_t*>(lab.data.data()) + i;
-          if (!*p) *p = uint16_t(labels[k]);
-          break;
-        }
-        default: {
-          int32_t* p = reinterpret_cast<int32_t*>(lab.data.data()) + i;
-          if (!*p) *p = int32_t(labels[k]);
-          break;
-        }
-      }
-    }
-  }
+  // Label map: object k -> labels[k], each voxel claimed once (read_results).
+  const ffseg_tools::NiftiImage lab = object_label_map(img, res, labels);
   if (!ffseg_tools::image_write_file(tmp.path + "/" + labels_file, labels_format, lab, &err)) fail(kExitFailure, err);
   check_interrupted();
 
-  // Overlay picture.
-  {
-    ffseg_tools::OverlayVolume ov;
-    ov.value = [&img](size_t i) { return voxel_value(img, i); };
-    for (int a = 0; a < 3; ++a) {
-      ov.dims[a] = img.dims[a];
-      ov.spacing[a] = img.spacing[a];
-    }
-    std::memcpy(ov.index_to_world, img.index_to_world, sizeof ov.index_to_world);
-    ffseg_tools::percentile_window(ov.value, size_t(nvox), 0.01, 0.99, &ov.window_lo, &ov.window_hi);
-    std::vector<ffseg_tools::OverlayObject> oo(nobj);
-    for (uint32_t k = 0; k < nobj; ++k) {
-      oo[k].name = names[k];
-      ffseg_tools::overlay_palette(k, oo[k].rgb);
-      oo[k].mask = res[k].mask.data();
-      if (k < truth_masks.size()) oo[k].truth = truth_masks[k].data();
-      for (int a = 0; a < 3; ++a) oo[k].center_ijk[a] = res[k].centre_ijk[size_t(a)];
-    }
-    ffseg_tools::RgbImage picture;
-    if (!ffseg_tools::overlay_render(ov, oo, &picture, &err)) fail(kExitFailure, err);
-    if (!ffseg_tools::png_write_file(tmp.path + "/overlay.png", picture, &err)) fail(kExitFailure, err);
-  }
+  if (!write_overlay(tmp.path + "/overlay.png", img, res, names, truth_masks, &err)) fail(kExitFailure, err);
   check_interrupted();
 
   // Report.
@@ -759,6 +468,10 @@ int cmd_segment(int argc, char** argv) {
     if (k < FFSEG_REPORT_OBJECTS) {
       o.set("final_mean_displacement_mm", info.mean_displacement_mm[k]);
       o.set("final_vertices_with_target", info.vertices_with_target[k]);
+    }
+    if (nobj > 1) {
+      o.set("border_vertices", r.border_vertices);
+      o.set("shared_voxels", uint64_t(r.shared_voxels));
     }
     if (!truth_masks.empty()) {
       check_interrupted();
@@ -801,6 +514,7 @@ int cmd_segment(int argc, char** argv) {
   rep.set("max_steps", max_steps);
   rep.set("converged", converged);
   rep.set("objects", std::move(objects));
+  if (nobj > 1) rep.set("shared_voxels", uint64_t(shared_voxels));
   Json times = Json::object();
   Json stages = Json::object();
   uint64_t stage_total = 0;
@@ -830,8 +544,20 @@ int cmd_segment(int argc, char** argv) {
   outs.set("mesh_format", ffseg_tools::mesh_format_extension(mesh_format));
   outs.set("labels", labels_file);
   outs.set("overlay", "overlay.png");
+  if (!regions_path.empty()) outs.set("regions", regions_path);
   rep.set("outputs", std::move(outs));
   if (!write_text_file(tmp.path + "/report.json", rep.dump(), &err)) fail(kExitFailure, err);
+  check_interrupted();
+
+  // The bounding regions beside it (renamed into place after DIR).
+  TempFile regions_tmp;
+  if (!regions_path.empty()) {
+    regions_tmp.path = parent_dir(regions_path) + "/.ffseg-tmp-" + std::to_string(::getpid()) + "-" +
+                       base_name(regions_path);
+    if (!ffseg_tools::image_write_file(regions_tmp.path, ffseg_tools::image_format_of_path(regions_path),
+                                       regions_map, &err))
+      fail(kExitFailure, err);
+  }
   check_interrupted();
 
   // ---- move into place ------------------------------------------------------------
@@ -855,6 +581,12 @@ int cmd_segment(int argc, char** argv) {
     tmp.keep = true;
   }
 
+  if (!regions_path.empty()) {
+    if (std::rename(regions_tmp.path.c_str(), regions_path.c_str()) != 0)
+      fail(kExitFailure, "cannot rename the bounding regions to " + regions_path + ": " + std::strerror(errno));
+    regions_tmp.keep = true;
+  }
+
   // Summary on stdout.
   std::printf("%s after %lld step%s in %.2f s; outputs in %s/\n", converged ? "converged" : "stopped",
               static_cast<long long>(steps), steps == 1 ? "" : "s", t_stepping, out_dir.c_str());
@@ -865,7 +597,17 @@ int cmd_segment(int argc, char** argv) {
     if (const Json* m = o.get("metrics"))
       std::printf("  dice %.4f  voe %.4f  assd %.3f mm  hd95 %.3f mm", m->get("dice")->as_number(),
                   m->get("voe")->as_number(), m->get("assd_mm")->as_number(), m->get("hd95_mm")->as_number());
+    if (nobj > 1) std::printf("  border %u", res[k].border_vertices);
     std::printf("\n");
+  }
+  if (nobj > 1) {
+    uint64_t rest = 0;
+    for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) rest += g == FFSEG_STAGE_REGIONS ? 0 : stage_us[g];
+    std::printf("  %u objects in one engine: bounding regions %.2f s, the rest of the steps %.2f s; "
+                "%llu voxel%s inside two meshes (labelled as the first)%s%s\n",
+                nobj, double(stage_us[FFSEG_STAGE_REGIONS]) / 1e6, double(rest) / 1e6,
+                static_cast<unsigned long long>(shared_voxels), shared_voxels == 1 ? "" : "s",
+                regions_path.empty() ? "" : "; regions in ", regions_path.c_str());
   }
   return kExitOk;
 }

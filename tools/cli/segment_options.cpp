@@ -1,0 +1,276 @@
+// `ffseg segment`'s command line (segment_options.h).
+#include "segment_options.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+
+#include "cli.h"
+#include "metrics.h"
+#include "param_args.h"
+
+namespace ffseg_cli {
+
+const char* target_name(uint32_t t) {
+  return t == FFSEG_TARGET_BINARY ? "binary" : t == FFSEG_TARGET_INTENSITY ? "intensity" : "unknown";
+}
+
+namespace {
+// The parameters' names, comma-separated, in the table's order.
+std::string param_names(const char* sep = ", ") {
+  std::string s;
+  for (unsigned i = 0; i < ffseg::kParamCount; ++i) s += std::string(i ? sep : "") + ffseg::kParamSpecs[i].name;
+  return s;
+}
+}  // namespace
+
+uint32_t parse_target(const std::string& v, const std::string& what) {
+  if (v == "binary") return FFSEG_TARGET_BINARY;
+  if (v == "intensity") return FFSEG_TARGET_INTENSITY;
+  return uint32_t(parse_int(v, what + " (binary, intensity or a number)", 0, 0xFFFFFFFFLL));
+}
+
+// --param NAME=VALUE: any row of the parameter table (param_args.h); a value
+// outside the table's range is refused here, naming the range.
+void set_param(ffseg_params* p, const std::string& assignment) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    fail(kExitUsage, "--param: expected NAME=VALUE, got '" + assignment + "'");
+  const std::string name = assignment.substr(0, eq), value = assignment.substr(eq + 1);
+  for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
+    const ParamField f = param_field(i);
+    if (name != f.spec->name) continue;
+    char* base = reinterpret_cast<char*>(p) + f.offset;
+    const std::string what = "--param " + name;
+    double v;
+    if (name == "target_mode") v = parse_target(value, what);
+    else if (f.spec->kind == ffseg::ParamKind::U32) v = double(parse_int(value, what, 0, 0xFFFFFFFFLL));
+    else v = parse_double(value, what);
+    if (!ffseg::param_in_range(*f.spec, v)) {
+      char range[48];
+      ffseg::param_range_text(*f.spec, range, sizeof range);
+      fail(kExitUsage, what + ": " + value + " is outside " + range +
+                           (f.spec->unit[0] ? std::string(" ") + f.spec->unit : std::string()) + " (" + f.spec->doc + ")");
+    }
+    if (f.spec->kind == ffseg::ParamKind::U32) {
+      const uint32_t u = uint32_t(v);
+      std::memcpy(base, &u, sizeof u);
+    } else {
+      std::memcpy(base, &v, sizeof v);
+    }
+    return;
+  }
+  fail(kExitUsage, "--param: unknown parameter '" + name + "' (known: " + param_names() + ")");
+}
+
+ffseg_tools::Json params_json(const ffseg_params& p) {
+  ffseg_tools::Json j = ffseg_tools::Json::object();
+  for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
+    const ParamField f = param_field(i);
+    const char* base = reinterpret_cast<const char*>(&p) + f.offset;
+    if (f.spec->kind == ffseg::ParamKind::U32) {
+      uint32_t v;
+      std::memcpy(&v, base, sizeof v);
+      j.set(f.spec->name, v);
+    } else {
+      double v;
+      std::memcpy(&v, base, sizeof v);
+      j.set(f.spec->name, v);
+    }
+  }
+  j.set("target_mode_name", target_name(p.target_mode));
+  return j;
+}
+
+SphereArg parse_sphere(const std::string& opt, const std::string& v) {
+  const std::vector<std::string> parts = split(v, ',');
+  if (parts.size() != 4)
+    fail(kExitUsage, opt + ": expected 4 comma-separated numbers " +
+                         (opt == "--sphere" ? std::string("X,Y,Z,R") : std::string("I,J,K,R")) + ", got '" + v + "'");
+  SphereArg s;
+  for (int k = 0; k < 4; ++k) s.c[k] = parse_double(parts[size_t(k)], opt);
+  if (!(s.c[3] > 0)) fail(kExitUsage, opt + ": the radius must be > 0 mm, got " + parts[3]);
+  s.voxel = opt == "--sphere-voxel";
+  s.text = opt + " " + v;
+  return s;
+}
+
+// --sphere-from-label LABELS:L (the last ':' separates the label, so the path may hold ':').
+SphereArg parse_sphere_from_label(const std::string& opt, const std::string& v) {
+  const size_t colon = v.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == v.size())
+    fail(kExitUsage, opt + ": expected LABELS.nii.gz:L (a label map and a label number), got '" + v + "'");
+  SphereArg s;
+  std::fill(s.c, s.c + 4, 0.0);
+  s.voxel = false;
+  s.text = opt + " " + v;
+  s.label_path = v.substr(0, colon);
+  s.label = parse_int(v.substr(colon + 1), opt + " label", 1, 2147483647LL);
+  return s;
+}
+
+// The evaluation-protocol sphere (PEERS.md) of every --sphere-from-label object:
+// centre = the label voxel farthest from the label's border (Euclidean distance
+// in mm; beyond the grid counts as outside), radius = half that distance, the
+// centre taken to world mm with the label map's own affine. Each label map is
+// read once; `known` holds maps already in memory (the --truth map), by path.
+void resolve_label_spheres(std::vector<SphereArg>* spheres, const ffseg_tools::NiftiImage& img,
+                           const std::string& volume_path,
+                           std::map<std::string, const ffseg_tools::NiftiImage*> known, bool quiet) {
+  std::vector<std::unique_ptr<ffseg_tools::NiftiImage>> owned;
+  for (SphereArg& s : *spheres) {
+    if (s.label_path.empty()) continue;
+    const ffseg_tools::NiftiImage*& lm = known[s.label_path];
+    if (!lm) {
+      owned.push_back(std::make_unique<ffseg_tools::NiftiImage>(read_image(s.label_path)));
+      lm = owned.back().get();
+    }
+    if (lm->dims[0] != img.dims[0] || lm->dims[1] != img.dims[1] || lm->dims[2] != img.dims[2])
+      fail(kExitInput, "grids differ: dimensions differ (" + std::to_string(img.dims[0]) + "x" +
+                           std::to_string(img.dims[1]) + "x" + std::to_string(img.dims[2]) + " vs " +
+                           std::to_string(lm->dims[0]) + "x" + std::to_string(lm->dims[1]) + "x" +
+                           std::to_string(lm->dims[2]) + ") between " + volume_path +
+                           " and --sphere-from-label " + s.label_path);
+    size_t count = 0;
+    const std::vector<uint8_t> mask = label_mask(*lm, s.label, &count);
+    if (count == 0 || !ffseg_tools::find_deepest_voxel(mask.data(), lm->dims, lm->spacing, &s.label_ijk, &s.depth_mm))
+      fail(kExitUsage, "--sphere-from-label: label " + std::to_string(s.label) + " has no voxel in " + s.label_path);
+    const double ijk[3] = {double(s.label_ijk[0]), double(s.label_ijk[1]), double(s.label_ijk[2])};
+    const std::array<double, 3> centre = voxel_to_world(lm->index_to_world, ijk);
+    for (int a = 0; a < 3; ++a) s.c[a] = centre[size_t(a)];
+    s.c[3] = s.depth_mm / 2;
+    if (!quiet)
+      std::fprintf(stderr, "ffseg: sphere from label %lld: centre (%s, %s, %s) mm, radius %s mm\n",
+                   static_cast<long long>(s.label), format_double(s.c[0]).c_str(), format_double(s.c[1]).c_str(),
+                   format_double(s.c[2]).c_str(), format_double(s.c[3]).c_str());
+  }
+}
+
+std::vector<int64_t> default_labels(const std::vector<SphereArg>& spheres) {
+  std::vector<int64_t> labels(spheres.size(), 0);
+  for (size_t k = 0; k < spheres.size(); ++k) {
+    if (spheres[k].label_path.empty()) continue;
+    for (size_t j = 0; j < k; ++j)
+      if (labels[j] == spheres[k].label)
+        fail(kExitUsage, "objects " + std::to_string(j + 1) + " and " + std::to_string(k + 1) +
+                             " both come from label " + std::to_string(spheres[k].label));
+    labels[k] = spheres[k].label;
+  }
+  for (size_t k = 0; k < spheres.size(); ++k) {
+    if (labels[k] != 0) continue;
+    int64_t l = int64_t(k) + 1;
+    while (std::find(labels.begin(), labels.end(), l) != labels.end()) ++l;
+    labels[k] = l;
+  }
+  return labels;
+}
+
+bool valid_name(const std::string& n) {
+  if (n.empty() || n.size() > 100 || n[0] == '.' || n[0] == '-') return false;
+  for (char c : n)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) return false;
+  return true;
+}
+
+namespace {
+const char* const kSegmentUsageText =
+    "usage: ffseg segment VOLUME (--sphere X,Y,Z,R | --sphere-voxel I,J,K,R |\n"
+    "                             --sphere-from-label LABELS:L)... --out DIR [options]\n"
+    "\n"
+    "Places one sphere mesh per --sphere / --sphere-voxel / --sphere-from-label\n"
+    "(object 1, 2, ... in the order given), deforms them all together in one engine\n"
+    "until they converge or --max-steps is reached, and writes into DIR:\n"
+    "  NAME.ply        each object's closed triangle mesh in world mm (format: --mesh-format)\n"
+    "  labels.nii.gz   label map on the input grid, every object in it: object k ->\n"
+    "                  its --truth-labels number, else its --sphere-from-label label,\n"
+    "                  else k (the next free number on a clash); a voxel inside two\n"
+    "                  meshes belongs to the first object only, and the report's\n"
+    "                  volumes and metrics measure exactly this map;\n"
+    "                  labels.nrrd / labels.mha for NRRD / MetaImage input\n"
+    "  overlay.png     axial, coronal and sagittal slices through each object's\n"
+    "                  centre with every object's contour in its own colour\n"
+    "                  (with --truth: the reference label as a dashed yellow contour,\n"
+    "                  a colour no object gets)\n"
+    "  report.json     input, steps, convergence, volume (ml), mesh size, metrics,\n"
+    "                  time per stage (regions: the bounding regions of several\n"
+    "                  objects), border vertices and shared voxels per object,\n"
+    "                  workspace bytes, version, parameters\n"
+    "Two or more objects deform within bounding regions (thesis chapter 6): each\n"
+    "voxel belongs to the object whose fast-marching front reaches it first, and a\n"
+    "mesh stops at another object's region (its border vertices). Parameters\n"
+    "region_width_mm, border_weight and region_interval below.\n"
+    "Everything is written to a temporary directory beside DIR and renamed into\n"
+    "place at the end: a failed or interrupted run leaves nothing behind.\n"
+    "\n"
+    "objects:\n"
+    "  --sphere X,Y,Z,R        centre in world mm, radius in mm; world = RAS (the NIfTI sform,\n"
+    "                          else qform; NRRD, MetaImage and DICOM LPS converted)\n"
+    "  --sphere-voxel I,J,K,R  centre in voxel indices (may be fractional), radius in mm\n"
+    "  --sphere-from-label LABELS:L\n"
+    "                          the evaluation-protocol sphere of label L of the label\n"
+    "                          map LABELS (same dims as VOLUME): centre = the label's\n"
+    "                          voxel farthest from its border (Euclidean, mm), in world\n"
+    "                          mm by LABELS' affine; radius = half that distance.\n"
+    "                          Printed on stderr; report.json gives sphere_source.\n"
+    "  --names a,b,...         file and report names, one per object (default object1, ...);\n"
+    "                          letters, digits, '_', '-', '.'\n"
+    "\n"
+    "output:\n"
+    "  --out DIR               output directory (required); must not exist or be empty\n"
+    "  --force                 replace a non-empty DIR\n"
+    "  --labels-format FMT     nifti, nrrd or metaimage (default: the input's; nifti for DICOM)\n"
+    "  --mesh-format FMT       ply (binary little endian, default), stl (binary), obj, vtk\n"
+    "                          (legacy ASCII POLYDATA)\n"
+    "  --regions FILE          also write the bounding regions of two or more objects\n"
+    "                          as a label map (the labels of labels.nii.gz; format by\n"
+    "                          the name: .nii.gz, .nii, .nrrd, .mha)\n"
+    "  -q, --quiet             no progress line (nor the --sphere-from-label lines)\n"
+    "\n"
+    "algorithm:\n"
+    "  --target MODE           binary (non-zero voxels are the object) or intensity\n"
+    "                          (grey-level model); default: @TARGET@\n"
+    "  --mesh-resolution N     each mesh has 6 N^2 vertices; 2..1024 (default 33)\n"
+    "  --max-steps K           stop after K deformation steps (default 200)\n"
+    "  --param NAME=VALUE      set an engine parameter (repeatable); NAME, default, range:\n"
+    "@PARAMS@"
+    "                          (full text: include/ffseg.h)\n"
+    "  --max-roi-voxels N      engine crop budget per object (default: the voxel\n"
+    "                          count, at most 2^26)\n"
+    "\n"
+    "evaluation:\n"
+    "  --truth LABELS          reference label map on the same grid\n"
+    "  --truth-labels a,b,...  its label for each object (default: the labels of\n"
+    "                          labels.nii.gz, see above); adds\n"
+    "                          Dice, VOE, ASSD and HD95 (mm) per object to the report\n"
+    "\n"
+    "examples:\n"
+    "  ffseg segment ch2bet.nii.gz --target binary --sphere 0,-17,19,60 --out brain\n"
+    "  ffseg segment ch2.nii.gz --sphere-from-label aal.nii.gz:73 --sphere-from-label aal.nii.gz:75 \\\n"
+    "      --truth aal.nii.gz --regions regions.nii.gz --out nuclei\n";
+}  // namespace
+
+std::string segment_usage() {
+  std::string s = kSegmentUsageText;
+  const size_t p = s.find("@TARGET@");
+  if (p != std::string::npos) s.replace(p, 8, target_name(kDefaultTarget));
+  // One line per row of the parameter table.
+  std::string rows;
+  for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
+    const ffseg::ParamSpec& f = ffseg::kParamSpecs[i];
+    char line[160], range[48], def[24];
+    ffseg::param_range_text(f, range, sizeof range);
+    // target_mode's default here is --target's, not the engine's.
+    if (std::strcmp(f.name, "target_mode") == 0) std::snprintf(def, sizeof def, "%s", target_name(kDefaultTarget));
+    else std::snprintf(def, sizeof def, "%g", f.default_value);
+    std::snprintf(line, sizeof line, "                            %-22s %-9s %s%s%s\n", f.name, def, range,
+                  f.unit[0] ? " " : "", f.unit);
+    rows += line;
+  }
+  const size_t q = s.find("@PARAMS@");
+  if (q != std::string::npos) s.replace(q, 8, rows);
+  return s;
+}
+
+}  // namespace ffseg_cli

@@ -1,0 +1,64 @@
+// `ffseg segment`'s command line: the sphere options, --param (generated from
+// the engine's parameter table, param_args.h), --target and the usage text.
+#ifndef FFSEG_CLI_SEGMENT_OPTIONS_H
+#define FFSEG_CLI_SEGMENT_OPTIONS_H
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "ffseg.h"
+#include "nifti.h"
+#include "report_json.h"
+
+namespace ffseg_cli {
+
+// The target mode used when --target is not given. FFSEG_TARGET_INTENSITY is
+// the goal; an engine without it answers FFSEG_ERR_NOT_IMPLEMENTED, which is
+// reported with a hint to use --target binary.
+constexpr uint32_t kDefaultTarget = FFSEG_TARGET_INTENSITY;
+constexpr uint32_t kDefaultMeshResolution = 33;
+constexpr int64_t kDefaultMaxSteps = 200;
+constexpr int64_t kMaxRoiCap = int64_t(1) << 26;
+
+const char* target_name(uint32_t t);  // "binary", "intensity", "unknown"
+// binary, intensity or a number; fail(kExitUsage) otherwise.
+uint32_t parse_target(const std::string& v, const std::string& what);
+// --param NAME=VALUE: any row of the parameter table; a value outside the
+// table's range is refused (kExitUsage), naming the range.
+void set_param(ffseg_params* p, const std::string& assignment);
+// Every table field of p, plus target_mode_name.
+ffseg_tools::Json params_json(const ffseg_params& p);
+
+struct SphereArg {
+  double c[4];   // centre (mm or voxel) and radius (mm)
+  bool voxel;
+  std::string text;
+  // --sphere-from-label: c[] is filled in once the label map has been read.
+  std::string label_path;  // empty for --sphere / --sphere-voxel
+  int64_t label = 0;
+  std::array<int, 3> label_ijk{};  // the deepest voxel of the label
+  double depth_mm = 0;             // its distance to the label's border
+};
+
+// --sphere X,Y,Z,R or --sphere-voxel I,J,K,R (opt says which).
+SphereArg parse_sphere(const std::string& opt, const std::string& v);
+// --sphere-from-label LABELS:L (the last ':' separates the label).
+SphereArg parse_sphere_from_label(const std::string& opt, const std::string& v);
+// Fills in the protocol sphere of every --sphere-from-label object (see the .cpp).
+void resolve_label_spheres(std::vector<SphereArg>* spheres, const ffseg_tools::NiftiImage& img,
+                           const std::string& volume_path,
+                           std::map<std::string, const ffseg_tools::NiftiImage*> known, bool quiet);
+// The label of each object in labels.nii.gz when --truth-labels is not
+// given: its --sphere-from-label label, else its index + 1, or the next
+// number that no other object has; fail(kExitUsage) when two objects come
+// from the same label.
+std::vector<int64_t> default_labels(const std::vector<SphereArg>& spheres);
+// A --names entry: letters, digits, '_', '-', '.'; not starting with '.' or '-'.
+bool valid_name(const std::string& n);
+
+}  // namespace ffseg_cli
+
+#endif  // FFSEG_CLI_SEGMENT_OPTIONS_H
