@@ -5,8 +5,9 @@
 // and alignment offered to ffseg_create, all allowed to be wrong), then one
 // operation per byte group until the input ends: set_params with extreme or
 // non-finite fields, set_volume with good or corrupted descriptors,
-// init_sphere, step, extract_mesh into short or exact buffers, rasterize,
-// sample, destroy and re-create, status/message queries. Object indices come
+// init_sphere, step, extract_mesh into short or exact buffers, rasterize or
+// region_mask (several objects' bounding regions), sample, destroy and
+// re-create, status/message queries. Object indices come
 // from the input and are often out of range.
 //
 // Every call must return a documented status; every refusal must leave the
@@ -18,7 +19,9 @@
 // engine most: the patch certificate is built lazily), so each object stepped
 // takes n^2 from kWorkBudget, the final check's step included; a step that
 // would exceed it is skipped (the final check then verifies everything but
-// the step). The config block gives meshes of n <= 4 and up to 4 objects; a
+// the step); besides, one step of two or more objects at n = 2 per input is
+// free of the budget, so that the bounding regions (thesis 6.2) are computed
+// and region_mask has something to read. The config block gives meshes of n <= 4 and up to 4 objects; a
 // raw config asking for objects * n^2 > kCreateBudget is created only where
 // creation must fail, and the small fallback engine runs the sequence (its six
 // configs are created once and restored, fuzz_workspace.h; the input's own
@@ -47,6 +50,8 @@ using ffseg_fuzz::Reader;
 constexpr uint64_t kWorkBudget = 4;
 // objects * n^2 of the largest engine created (the config block's 4 x 4^2).
 constexpr uint64_t kCreateBudget = 64;
+// Steps of several objects at n = 2 (the regions stage) per input, beyond kWorkBudget.
+constexpr int kMaxRegionSteps = 1;
 // Destroy-and-re-create operations per input.
 constexpr int kMaxRecreate = 1;
 
@@ -226,7 +231,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const size_t NV = size_t(6) * n * n;
   const size_t NT = size_t(12) * n * n - 4;
   uint64_t work = 0;
-  int recreated = 0;
+  int recreated = 0, region_steps = 0;
+  // Objects that may have a bounding region: placed when a step was called
+  // with two or more objects placed, not placed again since, volume unchanged.
+  std::vector<bool> may_have_region(objects, false);
 
   bool have_volume = false;
   int volume_kind = 0;
@@ -283,6 +291,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (st == FFSEG_OK) {
           have_volume = true;
           current = v;
+          may_have_region.assign(objects, false);
         } else if (st != FFSEG_ERR_INVALID_VOLUME && st != FFSEG_ERR_STRUCT_SIZE && st != FFSEG_ERR_NULL_POINTER) {
           finding("set_volume: unexpected status", st);
         }
@@ -304,6 +313,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (st == FFSEG_OK) {
           if (!have_volume || object >= objects) finding("init_sphere succeeded where it cannot", st);
           placed[object] = true;
+          may_have_region[object] = false;
         }
         if (!have_volume && object < objects && !(mode & 4) && st != FFSEG_ERR_MISUSE)
           finding("init_sphere without a volume is not MISUSE", st);
@@ -315,13 +325,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         uint64_t stepped = 0;
         for (bool b : placed) stepped += b ? 1 : 0;
         const uint64_t cost = uint64_t(n) * n * (stepped ? stepped : 1);
-        if (work + cost > kWorkBudget) break;  // over budget: skipped
-        work += cost;
+        const bool region_step = stepped >= 2 && n == 2 && region_steps < kMaxRegionSteps;
+        if (region_step) ++region_steps;
+        else if (work + cost > kWorkBudget) break;  // over budget: skipped
+        else work += cost;
         ffseg_step_info info;
         std::memset(&info, 0, sizeof info);
         const uint8_t mode = in.take<uint8_t>();
         info.struct_size = (mode & 1) ? mode : sizeof info;
         st = ffseg_step(e, (mode & 2) ? nullptr : &info);
+        if (stepped >= 2 && have_volume)
+          for (uint32_t o = 0; o < objects; ++o) may_have_region[o] = may_have_region[o] || placed[o];
         check_status(st, "step");
         bool any = false;
         for (bool b : placed) any = any || b;
@@ -348,8 +362,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
             if (!std::isfinite(xyz[i])) finding("non-finite vertex", static_cast<long long>(i));
         break;
       }
-      case 5: {  // rasterize
+      case 5: {  // rasterize, or (mode bit 2) region_mask
         const uint8_t mode = in.take<uint8_t>();
+        const bool region = (mode & 4) != 0;
         const size_t count = have_volume ? size_t(current.dims[0] * current.dims[1] * current.dims[2]) : 16;
         std::vector<uint8_t> mask(count, 7);
         const int64_t* D = current.dims;
@@ -360,12 +375,24 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           strides = flipped;
           base += D[0] * D[1] * (D[2] - 1);
         }
-        st = ffseg_rasterize(e, object, base, strides);
-        check_status(st, "rasterize");
+        st = region ? ffseg_region_mask(e, object, base, strides) : ffseg_rasterize(e, object, base, strides);
+        check_status(st, region ? "region_mask" : "rasterize");
+        if (st < 0 && ffseg_last_error(e)[0] == '\0') finding("a refusal without a message", st);
         if (st == FFSEG_OK) {
           if (!have_volume) finding("rasterize without a volume succeeded", st);
           for (uint8_t m : mask)
             if (m > 1) finding("mask value other than 0/1", m);
+        }
+        if (region && st == FFSEG_OK && (objects < 2 || object >= objects || !may_have_region[object]))
+          finding("region_mask succeeded without a region", st);
+        if (region && st == FFSEG_OK) {  // the regions of distinct objects share no voxel
+          std::vector<uint8_t> other(mask.size(), 0);
+          uint8_t* obase = strides ? other.data() + D[0] * D[1] * (D[2] - 1) : other.data();
+          for (uint32_t o = 0; o < objects; ++o) {
+            if (o == object || ffseg_region_mask(e, o, obase, strides) != FFSEG_OK) continue;
+            for (size_t i = 0; i < mask.size(); ++i)  // the same layout as mask
+              if (mask[i] && other[i]) finding("two objects' regions share a voxel", static_cast<long long>(i));
+          }
         }
         break;
       }
@@ -396,6 +423,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (cs != FFSEG_OK || again != e) finding("re-create in the same workspace failed", cs);
         have_volume = false;
         for (size_t i = 0; i < placed.size(); ++i) placed[i] = false;
+        may_have_region.assign(objects, false);
         break;
       }
       case 8: {  // another engine in a wrong workspace: refused, ours untouched
@@ -417,6 +445,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (ffseg_sample(nullptr, c, 0, &val) != FFSEG_ERR_NULL_POINTER) finding("sample(NULL)", 0);
         if (ffseg_sample(e, nullptr, 0, &val) != FFSEG_ERR_NULL_POINTER) finding("sample(point NULL)", 0);
         if (ffseg_rasterize(nullptr, 0, nullptr, nullptr) != FFSEG_ERR_NULL_POINTER) finding("rasterize(NULL)", 0);
+        if (ffseg_region_mask(nullptr, 0, nullptr, nullptr) != FFSEG_ERR_NULL_POINTER) finding("region_mask(NULL)", 0);
+        if (ffseg_region_mask(e, 0, nullptr, nullptr) != FFSEG_ERR_NULL_POINTER) finding("region_mask(mask NULL)", 0);
         if (ffseg_extract_mesh(nullptr, 0, nullptr, 0, nullptr, 0, nullptr, nullptr) != FFSEG_ERR_NULL_POINTER)
           finding("extract(NULL)", 0);
         if (ffseg_workspace_size(nullptr, nullptr) != FFSEG_ERR_NULL_POINTER) finding("workspace_size(NULL)", 0);
