@@ -214,3 +214,66 @@ TEST_CASE("step guard: no obstacles or an empty obstacle set change nothing, bit
   CHECK(shares[1] == shares[0]);
   CHECK(shares[2] == shares[0]);
 }
+
+TEST_CASE("step guard: two objects stepped in turn towards each other never end a step in contact") {
+  // A and B (n = 12, rough spheres 4 mm apart) each propose to move 1.5 mm
+  // towards the other per step, with noise; each is guarded against the
+  // other's current mesh, in turn. After every step: no contact either way,
+  // no self-intersection; and they do close the gap (the guard holds back
+  // the contact, not the whole motion).
+  ffseg_test::ContactBox a(12, 1), b(12, 1);
+  const uint32_t nv = a.m.nv;
+  std::mt19937_64 rng(1616);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  std::vector<double> X[2] = {a.sphere(10), a.sphere(10, 24.0, 0.4, -0.3)};
+  const double dir[2] = {1.0, -1.0};
+  ffseg_test::ContactBox* box[2] = {&a, &b};
+  std::vector<double> xs(size_t(3) * nv), share(nv);
+  std::vector<uint8_t> mark(nv), grow(nv);
+  uint32_t held = 0;
+  for (int step = 0; step < 16; ++step) {
+    for (int i = 0; i < 2; ++i) {
+      CAPTURE(step);
+      CAPTURE(i);
+      ffseg_test::ContactBox& g = *box[i];
+      const std::vector<double>& other = X[1 - i];
+      std::vector<double> prop(size_t(3) * nv);
+      for (uint32_t v = 0; v < nv; ++v)
+        for (int c = 0; c < 3; ++c)
+          prop[size_t(c) * nv + v] = X[i][3 * size_t(v) + c] + (c == 0 ? 1.5 * dir[i] : 0.0) + 0.15 * U(rng);
+      const double* obst[1] = {other.data()};
+      double region[6];
+      ffseg::guard_region(g.m, X[i].data(), prop.data(), region);
+      ffseg::build_obstacles(g.m, obst, 1, g.cs, region);
+      const double kept = ffseg::guard_step(g.m, X[i].data(), prop.data(), xs.data(), share.data(), mark.data(),
+                                            grow.data(), g.tri, &g.cs);
+      held += kept < 1.0;
+      X[i] = rows(prop, nv);
+      ffseg::build_obstacles(g.m, obst, 1, g.cs);
+      REQUIRE(ffseg::mark_contacts(g.m, X[i].data(), g.cs, nullptr) == 0);
+      const double* mine[1] = {X[i].data()};
+      ffseg::build_obstacles(g.m, mine, 1, g.cs);
+      REQUIRE(ffseg::mark_contacts(g.m, other.data(), g.cs, nullptr) == 0);
+      REQUIRE(ffseg::mark_intersections(g.m, X[i].data(), g.tri, nullptr) == 0);
+    }
+  }
+  CAPTURE(held);
+  CHECK(held > 4);
+  // The meshes met: their closest vertices are under a millimetre apart
+  // (they started 4 mm apart).
+  double closest = 1e300, reach = -1e300;
+  for (uint32_t v = 0; v < nv; ++v) {
+    reach = std::fmax(reach, X[0][3 * size_t(v)]);
+    for (uint32_t w = 0; w < nv; ++w) {
+      double d2 = 0;
+      for (int c = 0; c < 3; ++c) {
+        const double d = X[0][3 * size_t(v) + c] - X[1][3 * size_t(w) + c];
+        d2 += d * d;
+      }
+      closest = std::fmin(closest, d2);
+    }
+  }
+  CAPTURE(reach);
+  CHECK(std::sqrt(closest) < 1.0);
+  CHECK(reach > 12.0);  // from 10: A advanced, as B came to meet it
+}
