@@ -192,6 +192,7 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   hi = a.alloc<double>(3 * total);
   big_cap = uint32_t(total / kBigShare) + 16;
   big = a.alloc<uint32_t>(big_cap);
+  big_grid.carve(a, big_cap);
   grid.carve(a, uint32_t(total));
   qtris = a.alloc<uint32_t>(size_t(3) * nt);
   qlo = a.alloc<double>(size_t(3) * nt);
@@ -199,6 +200,7 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   qface = a.alloc<uint8_t>(m.nfaces);
   qcode = a.alloc<uint8_t>(m.nv);
   crossed = a.alloc<uint8_t>(max_obst);
+  zone = a.alloc<double>(size_t(6) * max_obst);
 }
 
 void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s,
@@ -278,10 +280,23 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     h *= 2;
   }
   const uint32_t total = nt * s.count;
-  s.grid.build(s.lo, s.hi, total, [&](uint32_t t) {
+  auto entered_tri = [&](uint32_t t) {
     const uint32_t k = t / nt;
-    return (s.state[k] & ContactScratch::kActive) && s.fdone[size_t(k) * m.nfaces + face_of(m, t - k * nt)] &&
-           s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
+    return (s.state[k] & ContactScratch::kActive) && s.fdone[size_t(k) * m.nfaces + face_of(m, t - k * nt)];
+  };
+  s.grid.build(s.lo, s.hi, total,
+               [&](uint32_t t) { return entered_tri(t) && s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t)); });
+  // The big ones at cells as wide as the widest of them (each then spans at
+  // most two per axis).
+  double wide = 2 * h;
+  for (uint32_t j = 0; j < s.nbig; ++j)
+    for (int a = 0; a < 3; ++a) wide = std::fmax(wide, s.hi[3 * size_t(s.big[j]) + a] - s.lo[3 * size_t(s.big[j]) + a]);
+  s.big_grid.set_cell_size(std::isfinite(wide) ? wide : 1.0);
+  s.big_fit = true;
+  for (uint32_t j = 0; j < s.nbig; ++j)
+    s.big_fit = s.big_fit && s.big_grid.fits(s.lo + 3 * size_t(s.big[j]), s.hi + 3 * size_t(s.big[j]));
+  s.big_grid.build(s.lo, s.hi, s.big_fit && s.nbig ? total : 0, [&](uint32_t t) {
+    return entered_tri(t) && !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
   });
 }
 
@@ -298,8 +313,11 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
     const double* b = s.box + 6 * size_t(k);
     s.crossed[k] = 0;
     if (!(s.state[k] & ContactScratch::kActive) || !detail::boxes_overlap(xlo, xhi, b, b + 3)) continue;
+    double* z = s.zone + 6 * size_t(near);
     for (int a = 0; a < 3; ++a) {
       const double l = b[a] > xlo[a] ? b[a] : xlo[a], h = b[3 + a] < xhi[a] ? b[3 + a] : xhi[a];
+      z[a] = l;
+      z[3 + a] = h;
       zlo[a] = near == 0 || l < zlo[a] ? l : zlo[a];
       zhi[a] = near == 0 || h > zhi[a] ? h : zhi[a];
     }
@@ -343,21 +361,34 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
     for (int i = 0; i < c && !stop; ++i) {
       const uint32_t t = t0 + i;
       const double *lt = s.qlo + 3 * size_t(t), *ht = s.qhi + 3 * size_t(t);
-      if (!detail::boxes_overlap(lt, ht, zlo, zhi)) continue;
-      if (s.grid.cells(lt, ht) <= kMaxQueryCells) {
-        // Each pair once: in the cell holding the low corner of the two
-        // boxes' intersection (it lies in both boxes' cells).
-        s.grid.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* cell) {
+      // Only where the query's box overlaps some obstacle's (the zone
+      // bounds them all).
+      bool meets = false;
+      for (uint32_t j = 0; j < near && !meets; ++j)
+        meets = detail::boxes_overlap(lt, ht, s.zone + 6 * size_t(j), s.zone + 6 * size_t(j) + 3);
+      if (!meets) continue;
+      // Each pair once: in the cell holding the low corner of the two
+      // boxes' intersection (it lies in both boxes' cells).
+      auto query = [&](const BoxGrid& g) {
+        g.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* cell) {
           if (stop) return;
           const double* lu = s.lo + 3 * size_t(u);
           if (!detail::boxes_overlap(lt, ht, lu, s.hi + 3 * size_t(u))) return;
           for (int a = 0; a < 3; ++a)
-            if (s.grid.cell(lt[a] > lu[a] ? lt[a] : lu[a]) != cell[a]) return;
+            if (g.cell(lt[a] > lu[a] ? lt[a] : lu[a]) != cell[a]) return;
           test(t, u);
         });
-        for (uint32_t j = 0; j < s.nbig && !stop; ++j) {
-          const uint32_t u = s.big[j];
-          if (detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(t, u);
+      };
+      if (s.grid.cells(lt, ht) <= kMaxQueryCells) {
+        query(s.grid);
+        if (s.nbig == 0) continue;
+        if (s.big_fit && s.big_grid.cells(lt, ht) <= kMaxQueryCells) {
+          query(s.big_grid);
+        } else {
+          for (uint32_t j = 0; j < s.nbig && !stop; ++j) {
+            const uint32_t u = s.big[j];
+            if (detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(t, u);
+          }
         }
       } else {
         // Triangles completed for the ray test lie outside the region, so

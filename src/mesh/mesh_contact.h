@@ -39,6 +39,10 @@ struct ContactScratch {
   uint32_t* big = nullptr;            // triangles too wide for the grid's cells
   uint32_t nbig = 0, big_cap = 0;
   BoxGrid grid;
+  // The big triangles in a grid of their own, its cells as wide as the
+  // widest (big_fit: every one entered; else they are scanned).
+  BoxGrid big_grid;
+  bool big_fit = false;
   double eps = 0;                     // the boxes' widening against rounding
   // The query mesh: its triangles (3 each), boxes, and which of them are
   // set (per face, 1 when its triangles were split and boxed this query).
@@ -48,6 +52,7 @@ struct ContactScratch {
   uint8_t* qface = nullptr;
   uint8_t* qcode = nullptr;           // per vertex: outcodes against a box (scratch)
   uint8_t* crossed = nullptr;         // per obstacle, this query
+  double* zone = nullptr;             // per obstacle met, this query: its box's overlap with the query's (6)
   void carve(Arena& a, const CubeSphere& m, uint32_t max_obstacles);
 };
 
