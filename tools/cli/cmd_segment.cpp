@@ -470,7 +470,7 @@ int cmd_segment(int argc, char** argv) {
       o.set("final_vertices_with_target", info.vertices_with_target[k]);
     }
     if (nobj > 1) {
-      o.set("border_vertices", r.border_vertices);
+      if (k < FFSEG_REPORT_OBJECTS) o.set("border_vertices", r.border_vertices);  // ffseg_step_info's reach
       o.set("shared_voxels", uint64_t(r.shared_voxels));
     }
     if (!truth_masks.empty()) {

@@ -222,6 +222,38 @@ static class Tests {
     e.Dispose();  // twice is fine
   }
 
+  // Two objects in a bar of ones: after a few steps their bounding regions
+  // (ffseg_region_mask) are non-empty and share no voxel; before, MISUSE.
+  static void TwoObjectsGetDisjointRegions() {
+    long[] dims = {40, 12, 12};
+    var bar = new byte[40 * 12 * 12];
+    for (int k = 3; k < 9; ++k)
+      for (int j = 3; j < 9; ++j)
+        for (int i = 4; i < 36; ++i) bar[i + 40 * (j + 12 * k)] = 1;
+    Config c = Small(6);
+    c.MaxObjects = 2;
+    using (var e = new Engine(c)) {
+      e.SetVolume(bar, dims);
+      e.InitSphere(0, new double[] {10, 5.5, 5.5}, 2);
+      e.InitSphere(1, new double[] {29, 5.5, 5.5}, 2);
+      var r0 = new byte[bar.Length];
+      var r1 = new byte[bar.Length];
+      Assert(Throws(() => e.RegionMask(0, r0)).Status == Status.ErrMisuse, "no region before a step");
+      StepInfo info;
+      for (int s = 0; s < 3; ++s) e.Step(out info);
+      e.RegionMask(0, r0);
+      e.RegionMask(1, r1);
+      int n0 = 0, n1 = 0, both = 0;
+      for (int v = 0; v < bar.Length; ++v) {
+        n0 += r0[v];
+        n1 += r1[v];
+        both += r0[v] & r1[v];
+      }
+      Assert(n0 > 100 && n1 > 100, "regions of " + n0 + " and " + n1 + " voxels");
+      Assert(both == 0, both + " voxels in both regions");
+    }
+  }
+
   static int Main(string[] args) {
     if (args.Length != 1) {
       Console.Error.WriteLine("usage: mono Tests.exe LAYOUT_FILE (the output of abi/layout.c)");
@@ -238,6 +270,7 @@ static class Tests {
       new KeyValuePair<string, Action>("a sphere grows onto an ellipsoid", SphereGrowsOntoAnEllipsoid),
       new KeyValuePair<string, Action>("a failed SetVolume keeps the previous volume pinned", FailedSetVolumeKeepsThePreviousOnePinned),
       new KeyValuePair<string, Action>("Dispose releases everything", DisposeReleasesEverything),
+      new KeyValuePair<string, Action>("two objects get disjoint bounding regions", TwoObjectsGetDisjointRegions),
     };
     int passed = 0, failed = 0;
     foreach (var t in tests) {

@@ -42,7 +42,9 @@ def test_python_matches_the_cli_on_colin27(tmp_path):
                                   target_mode="intensity", mesh_resolution=12, max_steps=200,
                                   rescale_slope=slope, rescale_intercept=inter, return_meshes=True)
     labels = np.asarray(nibabel.load(str(out / "labels.nii.gz")).dataobj)
-    cli_mask = (labels == 1).astype(np.uint8)
+    # A --sphere-from-label object is labelled with its own label (73) in labels.nii.gz.
+    assert report["objects"][0]["label"] == 73
+    cli_mask = (labels == 73).astype(np.uint8)
     assert cli_mask.sum() == report["objects"][0]["voxels"] > 1000
     assert masks[0].shape == cli_mask.shape
     assert int((masks[0] != cli_mask).sum()) == 0

@@ -145,3 +145,43 @@ fn dropping_the_engine_frees_the_workspace_for_another() {
         assert_eq!(e.mesh(0).unwrap().vertices.len(), 6 * 64);
     }
 }
+
+#[test]
+fn two_objects_in_a_bar_get_disjoint_bounding_regions() {
+    // A bar of ones along i, one sphere near each end, binary targets.
+    let dims = [40usize, 12, 12];
+    let mut bar = vec![0u8; dims[0] * dims[1] * dims[2]];
+    for k in 3..9 {
+        for j in 3..9 {
+            for i in 4..36 {
+                bar[i + dims[0] * (j + dims[1] * k)] = 1;
+            }
+        }
+    }
+    let mut cfg = small_config(6);
+    cfg.max_objects = 2;
+    let mut ws = Workspace::new(&cfg).unwrap();
+    let mut e = Engine::new(&mut ws).unwrap();
+    let mut p = Params::default();
+    p.target_mode = sys::FFSEG_TARGET_BINARY;
+    e.set_params(&p).unwrap();
+    e.set_volume(&Volume::new(&bar, dims)).unwrap();
+    e.init_sphere(0, [10.0, 5.5, 5.5], 2.0).unwrap();
+    e.init_sphere(1, [29.0, 5.5, 5.5], 2.0).unwrap();
+    let mut r0 = vec![7u8; bar.len()];
+    let err = e.region_mask(0, &mut r0).unwrap_err(); // no step yet
+    assert_eq!(err.status(), sys::FFSEG_ERR_MISUSE);
+    assert!(err.message().contains("no bounding region yet"), "message: {}", err.message());
+    for _ in 0..3 {
+        e.step().unwrap();
+    }
+    let mut r1 = vec![7u8; bar.len()];
+    e.region_mask(0, &mut r0).unwrap();
+    e.region_mask(1, &mut r1).unwrap();
+    assert!(r0.iter().chain(&r1).all(|&b| b <= 1));
+    assert!(r0.iter().zip(&r1).all(|(a, b)| !(*a == 1 && *b == 1)), "two regions share a voxel");
+    assert!(r0.iter().filter(|&&b| b == 1).count() > 100);
+    assert!(r1.iter().filter(|&&b| b == 1).count() > 100);
+    let mut short = vec![0u8; bar.len() - 1];
+    assert_eq!(e.region_mask(0, &mut short).unwrap_err().status(), sys::FFSEG_ERR_BUFFER_TOO_SMALL);
+}
