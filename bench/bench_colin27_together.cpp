@@ -239,6 +239,6 @@ int main(int argc, char** argv) {
               both.steps, both.regions_ms, both.regions_ms / both.steps, both.other_ms, both.other_ms / both.steps,
               both.regions_ms / both.other_ms);
   std::printf("alone: %d steps in all, %.1f ms of steps\n", alone_steps, alone_ms);
-  std::printf("mean Dice together - alone: %+.3f\n", (dt - da) / k);
+  std::printf("mean Dice together - alone: %+.4f\n", (dt - da) / k);
   return 0;
 }

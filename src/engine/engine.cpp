@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <new>
 
+#include "mesh_contact.h"
 #include "rasterize.h"
 #include "stages.h"
 #include "triangulation.h"
@@ -54,7 +55,7 @@ void Engine::layout(Arena& a) {
   // Several objects: bounding regions (thesis chapter 6), one front at a
   // time in the shared marcher, each object's times in its own map.
   const bool regions = cfg_.max_objects > 1;
-  if (regions) scratch_.carve_regions(a, cfg_.max_roi_voxels, cfg_.max_objects);
+  if (regions) scratch_.carve_regions(a, mesh_, cfg_.max_roi_voxels, cfg_.max_objects);
   objects_ = a.alloc<Object>(cfg_.max_objects);
   region_maps_ = regions ? a.alloc<RegionMap>(cfg_.max_objects) : nullptr;
   Object probe;  // measuring pass: carve through a throw-away object
@@ -179,6 +180,36 @@ Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
     std::snprintf(msg_, kMsgLen, "init_sphere: the sphere (%g, %g, %g) r = %g mm does not meet the volume",
                   c[0], c[1], c[2], r);
     return Err::sphere_outside;
+  }
+  // Several objects never overlap (the step guard keeps them apart from
+  // here on): a sphere that crosses or encloses a placed object, or lies
+  // inside one, is refused.
+  if (cfg_.max_objects > 1) {
+    double* sphere = scratch_.tmp;
+    for (uint32_t v = 0; v < mesh_.nv; ++v)
+      for (int d = 0; d < 3; ++d) sphere[3 * v + d] = c[d] + r * mesh_.unit[3 * v + d];
+    uint32_t others = 0;
+    for (uint32_t j = 0; j < cfg_.max_objects; ++j)
+      if (j != object && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
+    if (others > 0) {
+      build_obstacles(mesh_, scratch_.obstacles, others, scratch_.contacts);
+      if (mark_contacts(mesh_, sphere, scratch_.contacts, nullptr) > 0) {
+        uint32_t hit = cfg_.max_objects;  // the first obstacle met, else the first placed one
+        for (uint32_t k = 0, j = 0; j < cfg_.max_objects; ++j) {
+          if (j == object || !objects_[j].placed) continue;
+          if (hit == cfg_.max_objects) hit = j;
+          if (scratch_.contacts.crossed[k++]) {
+            hit = j;
+            break;
+          }
+        }
+        std::snprintf(msg_, kMsgLen,
+                      "init_sphere: the sphere (%g, %g, %g) r = %g mm overlaps object %u (objects of one engine "
+                      "never overlap): place it apart",
+                      c[0], c[1], c[2], r, hit);
+        return Err::invalid_argument;
+      }
+    }
   }
   Object& o = objects_[object];
   for (uint32_t v = 0; v < mesh_.nv; ++v)
@@ -348,11 +379,18 @@ Err Engine::step(StepReport* r) {
     lap(kStageIntersection);
     // 6. Laplacian deformation, solve and guarded update (times its own
     // assembly, factor, solve and guard stages).
-    const Err e = each_active([&](Object& o) {
-      return deform_step(mesh_, p, o.convergence.moving_threshold(rule()), o.x, o.step, scratch_, r->stage_us, msg_,
-                         kMsgLen);
-    });
-    if (e != Err::ok) return e;
+    for (uint32_t i = 0; i < N; ++i) {
+      Object& o = objects_[i];
+      if (!o.active()) continue;
+      // Every other placed object, as it is now (moved already this step or not).
+      uint32_t others = 0;
+      if (placed > 1)
+        for (uint32_t j = 0; j < N; ++j)
+          if (j != i && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
+      const Err e = deform_step(mesh_, p, o.convergence.moving_threshold(rule()), o.x, o.step, scratch_,
+                                scratch_.obstacles, others, r->stage_us, msg_, kMsgLen);
+      if (e != Err::ok) return e;
+    }
   }
 
   // 7. Convergence, object by object, and the report of the first objects.

@@ -14,6 +14,7 @@
 #include "fold_prevention.h"
 #include "intensity_model.h"
 #include "laplacian_system.h"
+#include "mesh_contact.h"
 #include "mesh_intersection.h"
 #include "smoothing.h"
 
@@ -78,8 +79,12 @@ struct StepScratch {
   FastMarching fm;
   uint8_t* seed_mask = nullptr;
   const IntensityModel** models = nullptr;  // max_objects: the models competing in a front's speed
+  // The other objects' meshes as obstacles of one object's guarded update
+  // (the hard no-overlap guarantee), and their positions.
+  ContactScratch contacts;
+  const double** obstacles = nullptr;  // max_objects
   void carve(Arena& a, const CubeSphere& m);
-  void carve_regions(Arena& a, int64_t max_voxels, uint32_t max_objects);
+  void carve_regions(Arena& a, const CubeSphere& m, int64_t max_voxels, uint32_t max_objects);
 };
 
 }  // namespace ffseg

@@ -74,10 +74,12 @@ void ObjectStep::carve(Arena& a, uint32_t nv, bool regions) {
   border = regions ? a.alloc<uint8_t>(nv) : nullptr;
 }
 
-void StepScratch::carve_regions(Arena& a, int64_t max_voxels, uint32_t max_objects) {
+void StepScratch::carve_regions(Arena& a, const CubeSphere& m, int64_t max_voxels, uint32_t max_objects) {
   fm.carve(a, max_voxels, false);
   seed_mask = a.alloc<uint8_t>(max_voxels > 0 ? size_t(max_voxels) : 0);
   models = a.alloc<const IntensityModel*>(max_objects);
+  contacts.carve(a, m, max_objects - 1);
+  obstacles = a.alloc<const double*>(max_objects);
 }
 
 Err compute_object_region(const CubeSphere& m, const VolumeView& vol, const Params& p, Object& o,
@@ -207,7 +209,8 @@ void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, O
 }
 
 Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x, ObjectStep& st, StepScratch& s,
-                uint64_t stage_us[kStageCount], char* msg, size_t msg_len) {
+                const double* const* others, uint32_t other_count, uint64_t stage_us[kStageCount], char* msg,
+                size_t msg_len) {
   const uint32_t nv = m.nv;
   uint64_t t0 = now_us(), t1;
   auto lap = [&](int stage) {
@@ -253,7 +256,17 @@ Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x
     for (uint32_t v = 0; v < nv; ++v)
       if (border[v])
         for (int a = 0; a < 3; ++a) s.rhs[size_t(a) * nv + v] = s.goal[3 * size_t(v) + a];
-  guard_step(m, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles);
+  // Several objects: the others' meshes are obstacles the update may not
+  // touch (the hard no-overlap guarantee); the guard holds back the
+  // vertices in contact as it does those of a fold or a crossing.
+  ContactScratch* obstacles = nullptr;
+  if (other_count > 0) {
+    double region[6];
+    guard_region(m, x, s.rhs, region);
+    build_obstacles(m, others, other_count, s.contacts, region);
+    obstacles = &s.contacts;
+  }
+  guard_step(m, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles, obstacles);
   lap(kStageGuard);
   MotionTally tally{still_mm};
   for (uint32_t v = 0; v < nv; ++v) {

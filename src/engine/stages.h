@@ -65,9 +65,12 @@ void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, O
 // solved, and the guarded update: moves x (3 nv) to the new positions and
 // records the motion in st (mean displacement, vertices moving beyond
 // still_mm). Times the assembly, factor, solve and guard stages into
-// stage_us. On failure x is unchanged and msg says why.
+// stage_us. others[0..other_count): the other objects' positions, which
+// the update may not touch (their meshes, as they are when this object
+// moves). On failure x is unchanged and msg says why.
 Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x, ObjectStep& st, StepScratch& s,
-                uint64_t stage_us[kStageCount], char* msg, size_t msg_len);
+                const double* const* others, uint32_t other_count, uint64_t stage_us[kStageCount], char* msg,
+                size_t msg_len);
 
 // The naive variant of thesis fig. 4.10 (a test reference, through
 // EngineTesting): vertices move straight towards their targets by alpha, no

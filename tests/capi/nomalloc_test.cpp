@@ -137,7 +137,10 @@ TEST_CASE("create, set_volume, init_sphere, extract_mesh, rasterize, step and de
     // second runs the partial-volume search, the third finds them converged.
     grey.convergence_mm = 100;
     st_grey = ffseg_set_params(e, &grey);
-    st_sphere2 = ffseg_init_sphere(e, 1, c, 5.0);
+    // A second object beside the ball (objects may not overlap): with two
+    // placed, the steps also compute bounding regions and guard contacts.
+    const double c2[3] = {33.5, 18, 22.5};
+    st_sphere2 = ffseg_init_sphere(e, 1, c2, 2.0);
     for (int s = 0; s < 3; ++s) {
       st_step = ffseg_step(e, &info);
       if (s == 0) st_first_grey = st_step;

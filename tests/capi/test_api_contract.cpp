@@ -236,8 +236,9 @@ TEST_CASE("init_sphere and extract_mesh errors; counts and short buffers") {
   const double edge[3] = {45, 20, 20};
   CHECK(ffseg_init_sphere(eb.e, 0, edge, 5.5) == FFSEG_ERR_SPHERE_OUTSIDE);
   CHECK(ffseg_init_sphere(eb.e, 0, edge, 6.5) == FFSEG_OK);
-  // A huge ball containing the whole volume meets it.
-  CHECK(ffseg_init_sphere(eb.e, 1, c, 500) == FFSEG_OK);
+  // A huge ball containing the whole volume meets it (object 0 again: placed
+  // as object 1 it would enclose object 0, which one engine's objects may not).
+  CHECK(ffseg_init_sphere(eb.e, 0, c, 500) == FFSEG_OK);
   CHECK(ffseg_init_sphere(eb.e, 0, nullptr, 5) == FFSEG_ERR_NULL_POINTER);
   REQUIRE(ffseg_init_sphere(eb.e, 0, c, 5) == FFSEG_OK);
 

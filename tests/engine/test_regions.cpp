@@ -302,3 +302,28 @@ TEST_CASE("regions: a bounding box over max_roi_voxels is FFSEG_ERR_ROI_TOO_LARG
   REQUIRE(ffseg_test::extract(eb.e, 0, &after, &tris));
   CHECK(before == after);
 }
+
+TEST_CASE("regions: a sphere that overlaps a placed object is refused, naming it; apart it is placed") {
+  const Bar bar;
+  ffseg_test::EngineBox eb(3, 8, int64_t(1) << 18);
+  REQUIRE(eb.e != nullptr);
+  ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
+  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  const double a[3] = {22.3, 15.1, 14.8};
+  REQUIRE(ffseg_init_sphere(eb.e, 0, a, 4.0) == FFSEG_OK);
+  const double crossing[3] = {27.0, 15.0, 15.0};   // 4.7 mm apart, radii 4 + 3: the surfaces cross
+  const double inside[3] = {22.0, 15.0, 15.0};     // wholly inside object 0
+  const double around[3] = {22.3, 15.1, 14.8};     // encloses object 0 (r = 6)
+  CHECK(ffseg_init_sphere(eb.e, 2, crossing, 3.0) == FFSEG_ERR_INVALID_ARGUMENT);
+  std::string msg = ffseg_last_error(eb.e);
+  CAPTURE(msg);
+  CHECK(msg.find("overlaps object 0") != std::string::npos);
+  CHECK(ffseg_init_sphere(eb.e, 2, inside, 1.0) == FFSEG_ERR_INVALID_ARGUMENT);
+  CHECK(ffseg_init_sphere(eb.e, 2, around, 6.0) == FFSEG_ERR_INVALID_ARGUMENT);
+  // Refused spheres leave nothing placed.
+  CHECK(ffseg_extract_mesh(eb.e, 2, nullptr, 0, nullptr, 0, nullptr, nullptr) == FFSEG_ERR_MISUSE);
+  const double apart[3] = {44.6, 14.9, 15.2};
+  CHECK(ffseg_init_sphere(eb.e, 2, apart, 3.0) == FFSEG_OK);
+  // Placing object 0 again where it was is not an overlap with itself.
+  CHECK(ffseg_init_sphere(eb.e, 0, a, 4.5) == FFSEG_OK);
+}

@@ -726,9 +726,10 @@ TEST_CASE("cli: --sphere-from-label places the protocol sphere at the label's de
     centre[r] = lm.index_to_world[4 * r] * wijk[0] + lm.index_to_world[4 * r + 1] * wijk[1] +
                 lm.index_to_world[4 * r + 2] * wijk[2] + lm.index_to_world[4 * r + 3];
 
-  // Objects in command-line order: label 7, a --sphere, label 9.
+  // Objects in command-line order: label 7, a --sphere, label 9 (apart:
+  // objects of one engine may not overlap).
   const Run r = ffseg(s, "segment " + (s / "ball.nii.gz") + " --target binary --sphere-from-label " +
-                             (s / "lab.nii.gz") + ":7 --sphere 4,27,12,4 --sphere-from-label=" + (s / "lab.nii.gz") +
+                             (s / "lab.nii.gz") + ":7 --sphere 20,27,14,2 --sphere-from-label=" + (s / "lab.nii.gz") +
                              ":9 --mesh-resolution 5 --max-steps 2 --out " + (s / "out"));
   INFO("stderr: " << r.err);
   REQUIRE(r.code == 0);
