@@ -121,6 +121,10 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     return ModelStatus::bad_settings;
   }
   const double floor = std::sqrt(roi.noise_sigma() * roi.noise_sigma() + rho * range * rho * range);
+  if (!std::isfinite(floor)) {
+    say(msg, msg_len, "intensity model: the region's noise or intensity range is not finite (grey levels beyond float range)");
+    return ModelStatus::not_finite;
+  }
   const ModelStatus st = fit_samples(samples_, n, floor, s, lut, msg, msg_len);
   if (st != ModelStatus::ok || !s.scene_competitors) return st;
 

@@ -91,7 +91,9 @@ struct LutSpec {
   double slope = 1, intercept = 0;
 };
 
-enum class ModelStatus : int { ok = 0, no_samples, not_carved, bad_settings };
+// not_finite: the region's noise estimate or intensity range overflowed (grey
+// levels beyond float range: the smoothed crop is float).
+enum class ModelStatus : int { ok = 0, no_samples, not_carved, bad_settings, not_finite };
 
 class IntensityModel {
  public:

@@ -722,3 +722,48 @@ TEST_CASE("fuzz regression (volume): a grey-level sphere holding no voxel centre
   const ffseg_status st = ffseg_step(eb.e, nullptr);
   CHECK((st == FFSEG_OK || st == FFSEG_CONVERGED));
 }
+
+TEST_CASE("fuzz regression (volume): grey levels beyond float range are NUMERIC at the grey-level step, mesh unchanged") {
+  // fuzz_volume found (fuzz/corpus/volume/regress_grey_beyond_float): an f64
+  // volume with values near 1e289 is accepted (finite), the grey-level crop is
+  // float, so its noise estimate and range overflow, and the first grey-level
+  // step returned INVALID_ARGUMENT ("binning radius/separation and sigma
+  // floor must be finite"), which ffseg_step does not document. Now NUMERIC
+  // with a message; mesh unchanged, the engine usable.
+  const int N = 8;
+  std::vector<double> vox(size_t(N) * N * N);
+  for (size_t q = 0; q < vox.size(); ++q) vox[q] = double((q * 7919) % 3) * 1e39;
+  ffseg_volume v;
+  std::memset(&v, 0, sizeof v);
+  v.struct_size = sizeof v;
+  v.voxel_type = FFSEG_F64;
+  v.data = vox.data();
+  v.data_bytes = vox.size() * sizeof(double);
+  for (int a = 0; a < 3; ++a) v.dims[a] = N;
+  v.strides[0] = 8;
+  v.strides[1] = 8 * N;
+  v.strides[2] = 8 * N * N;
+  v.index_to_world[0] = v.index_to_world[5] = v.index_to_world[10] = v.index_to_world[15] = 1;
+  v.rescale_slope = 1;
+  EngineBox eb(1, 4);
+  REQUIRE(eb.e != nullptr);
+  ffseg_params p;
+  ffseg_params_init_default(&p);
+  p.target_mode = FFSEG_TARGET_INTENSITY;
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
+  const double centre[3] = {3.5, 3.5, 3.5};
+  REQUIRE(ffseg_init_sphere(eb.e, 0, centre, 2.0) == FFSEG_OK);
+  std::vector<float> sphere, after;
+  std::vector<uint32_t> tris;
+  REQUIRE(ffseg_test::extract(eb.e, 0, &sphere, &tris));
+  CHECK(ffseg_step(eb.e, nullptr) == FFSEG_ERR_NUMERIC);
+  CHECK(std::string(ffseg_last_error(eb.e)).find("not finite") != std::string::npos);
+  REQUIRE(ffseg_test::extract(eb.e, 0, &after, &tris));
+  CHECK(same_bits(after, sphere));
+  // Binary targets on the same volume segment as usual.
+  p.target_mode = FFSEG_TARGET_BINARY;
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  const ffseg_status st = ffseg_step(eb.e, nullptr);
+  CHECK((st == FFSEG_OK || st == FFSEG_CONVERGED));
+}
