@@ -241,7 +241,7 @@ typedef struct ffseg_volume {
   const void* data;       /* start of the readable buffer; never written */
   uint64_t data_bytes;    /* its length in bytes */
   int64_t offset;         /* bytes from data to voxel (0,0,0) */
-  int64_t dims[3];        /* voxels along i, j, k; each >= 1 */
+  int64_t dims[3];        /* voxels along i, j, k; each >= 2 (a single slice is refused) */
   int64_t strides[3];     /* bytes between neighbours along i, j, k; may be negative
                              or padded; voxels must not overlap */
   double index_to_world[16]; /* row-major 4x4: voxel centre (i,j,k,1) -> mm; last row 0 0 0 1 */
@@ -250,7 +250,8 @@ typedef struct ffseg_volume {
 } ffseg_volume;
 
 /* Voxel (i,j,k) is read at data + offset + i*strides[0] + j*strides[1] +
- * k*strides[2]. Everything is checked: dims < 1, dimension products that
+ * k*strides[2]. Everything is checked: dims < 1, a single slice (a dims of 1),
+ * dimension products that
  * overflow 64 bits, NULL data, any voxel byte outside [data, data + data_bytes),
  * overlapping voxels, an unknown type, a singular or non-finite affine or a
  * last row other than 0 0 0 1, a zero or non-finite slope, a non-finite

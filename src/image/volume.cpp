@@ -81,6 +81,17 @@ bool VolumeView::assign(const VolumeDesc& d, char* msg, size_t n) {
     if (prod * (__int128)es > (__int128)INT64_MAX)
       return fail(msg, n, "volume: voxel count times voxel size overflows 64 bits");
   }
+  // A single slice has no extent along one axis: a closed surface cannot
+  // bound anything in it, and a "segmentation" of it would be an artefact.
+  for (int a = 0; a < 3; ++a)
+    if (d.dims[a] == 1) {
+      if (msg)
+        std::snprintf(msg, n,
+                      "volume: dims[%d] = 1, a single slice: a 3-D segmentation needs at least 2 voxels along "
+                      "every axis",
+                      a);
+      return false;
+    }
   // Byte range touched: offset + sum of the extreme steps along each axis.
   __int128 lo = d.offset, hi = d.offset;
   for (int a = 0; a < 3; ++a) {

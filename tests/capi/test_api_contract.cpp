@@ -263,3 +263,24 @@ TEST_CASE("init_sphere and extract_mesh errors; counts and short buffers") {
   CHECK(ffseg_rasterize(eb2.e, 1, mask.data(), nullptr) == FFSEG_ERR_MISUSE);
   CHECK(ffseg_rasterize(eb.e, 0, nullptr, nullptr) == FFSEG_ERR_NULL_POINTER);
 }
+
+TEST_CASE("set_volume: a single slice along any axis is refused, naming the axis") {
+  std::vector<uint8_t> vox(16 * 16 * 16, 1);
+  const double A[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  ffseg_test::EngineBox eb(1, 8);
+  REQUIRE(eb.e != nullptr);
+  for (int axis = 0; axis < 3; ++axis) {
+    CAPTURE(axis);
+    int64_t dims[3] = {16, 16, 16};
+    dims[axis] = 1;
+    ffseg_volume v = ffseg_test::make_volume(vox.data(), FFSEG_U8, dims, A);
+    CHECK(ffseg_set_volume(eb.e, &v) == FFSEG_ERR_INVALID_VOLUME);
+    const std::string msg = ffseg_last_error(eb.e);
+    CAPTURE(msg);
+    CHECK(msg.find("dims[" + std::to_string(axis) + "] = 1, a single slice") != std::string::npos);
+  }
+  // Two slices are a (thin) volume.
+  const int64_t two[3] = {16, 16, 2};
+  ffseg_volume v = ffseg_test::make_volume(vox.data(), FFSEG_U8, two, A);
+  CHECK(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
+}

@@ -840,3 +840,18 @@ TEST_CASE("cli: --sphere-from-label on AAL label 73 gives the putamen sphere of 
   CHECK(o.get("sphere_source")->as_string() == "label 73 of aal.nii.gz");
   CHECK(std::fabs(o.get("sphere")->get("radius_mm")->as_number() - 2.92) <= 0.05);
 }
+
+TEST_CASE("cli: a volume of a single slice is refused (exit 3) with the engine's reason") {
+  Scratch s;
+  Balls b = make_balls({kBall}, {1});
+  // Keep slice k = 8 only.
+  NiftiImage one = b.image;
+  one.dims[2] = 1;
+  const size_t plane = size_t(one.dims[0]) * size_t(one.dims[1]);
+  one.data.assign(b.image.data.begin() + 8 * plane, b.image.data.begin() + 9 * plane);
+  write(s / "slice.nii.gz", one);
+  const Run r = ffseg(s, "segment " + (s / "slice.nii.gz") + " --target binary --sphere 4,27,12,3 --out " + (s / "out"));
+  INFO("stderr: " << r.err);
+  CHECK(r.code == 3);
+  CHECK(r.err.find("a single slice") != std::string::npos);
+}
