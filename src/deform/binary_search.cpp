@@ -115,10 +115,12 @@ uint32_t search_binary_t(const VolumeView& vol, uint32_t nv, const double* x, co
       double p[3];
       for (int a = 0; a < 3; ++a) p[a] = p0[a] + sgn * t * dir[a];
       if (region && inside && region->foreign(p)) {
-        // Another object's region (thesis 6.3): the last sample before it,
-        // less a sample of clearance (two objects' border vertices then stay
-        // about a voxel apart instead of meeting at the shared face).
-        const double tb = t_prev > step_mm ? t_prev - step_mm : 0.0;
+        // Another object's region (thesis 6.3): the last sample before it.
+        // (Two objects' border vertices may then meet across the regions'
+        // shared face; the step guard's contact test keeps them apart. A
+        // sample of clearance, used before that test existed, cost Dice:
+        // Colin27's eight nuclei together +0.020 against +0.029 without.)
+        const double tb = t_prev;
         for (int a = 0; a < 3; ++a) target[3 * size_t(v) + a] = u[a] + tb * normals[3 * size_t(v) + a];
         has[v] = 1;
         border[v] = 1;

@@ -96,8 +96,8 @@ __attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const
             ok = true;
             ta = double(j) * step;
             tb = double(j + 1) * step;
-            // The border's target keeps a sample of clearance (binary_search.cpp).
-            if (at_border) ta = tb = i >= 2 ? double(i - 2) * step : 0.0;
+            // (binary_search.cpp: no clearance; the step guard keeps the objects apart.)
+            if (at_border) ta = tb = double(i - 1) * step;
             break;
           }
         }

@@ -180,8 +180,7 @@ size_t crossings_between(const std::vector<float>& xa, const std::vector<uint32_
 TEST_CASE("chapter 6 on Colin27: the eight deep nuclei together never overlap and gain on their Dice alone") {
   // Caudate, putamen, pallidum, thalamus L/R (AAL 71-78), protocol spheres,
   // n = 12, defaults, one engine. Measured (BENCHMARKS section 6): mean Dice
-  // 0.462 alone, 0.482 together (+0.0198: the issue's goal of +0.02 is just
-  // missed, so the floor here is the measured gain less a margin), 0 voxels
+  // 0.462 alone, 0.491 together (+0.029; right +0.051, left +0.007), 0 voxels
   // shared (18,870 alone), no crossing between two meshes after any step.
   ffseg_tools::NiftiImage t1, aal;
   std::string err;
@@ -240,5 +239,5 @@ TEST_CASE("chapter 6 on Colin27: the eight deep nuclei together never overlap an
   }
   MESSAGE("mean Dice alone ", alone, ", together ", together, " after ", steps, " steps");
   CHECK(shared == 0);
-  CHECK(together >= alone + 0.015);
+  CHECK(together >= alone + 0.02);  // issue 16's goal
 }
