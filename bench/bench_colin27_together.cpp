@@ -59,19 +59,6 @@ bool protocol_sphere(const ffseg_tools::NiftiImage& t1, const ffseg_tools::Nifti
   return true;
 }
 
-size_t mesh_crossings(const std::vector<float>& xa, const std::vector<uint32_t>& ta, const std::vector<float>& xb,
-                      const std::vector<uint32_t>& tb) {
-  std::vector<float> x = xa;
-  x.insert(x.end(), xb.begin(), xb.end());
-  std::vector<uint32_t> t = ta;
-  const uint32_t off = uint32_t(xa.size() / 3);
-  for (uint32_t v : tb) t.push_back(v + off);
-  auto count = [](const std::vector<float>& p, const std::vector<uint32_t>& q) {
-    const auto r = ffseg_test::check_self_intersections(p.data(), p.size() / 3, q.data(), q.size() / 3);
-    return r.disjoint_pairs + r.shared_vertex_pairs;
-  };
-  return count(x, t) - count(xa, ta) - count(xb, tb);
-}
 
 bool g_verbose = false;
 double g_width = 0, g_border = 0;
@@ -137,7 +124,7 @@ Outcome run(const ffseg_tools::NiftiImage& t1, const ffseg_tools::NiftiImage& aa
       for (uint32_t o = 0; o < k; ++o) ffseg_test::extract(e, o, &xyz[o], &tris[o]);
       size_t worst = 0;
       for (uint32_t a = 0; a < k; ++a)
-        for (uint32_t b = a + 1; b < k; ++b) worst = std::max(worst, mesh_crossings(xyz[a], tris[a], xyz[b], tris[b]));
+        for (uint32_t b = a + 1; b < k; ++b) worst = std::max(worst, ffseg_test::crossings_between(xyz[a], tris[a], xyz[b], tris[b]));
       out.worst_crossings = std::max(out.worst_crossings, worst);
     }
   }

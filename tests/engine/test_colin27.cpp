@@ -159,21 +159,6 @@ TEST_CASE("chapter 5 on Colin27: partial-volume steps come after the first rest,
 
 namespace {
 
-// Crossing triangle pairs between two closed meshes (the two as one soup,
-// less what each has alone).
-size_t crossings_between(const std::vector<float>& xa, const std::vector<uint32_t>& ta, const std::vector<float>& xb,
-                         const std::vector<uint32_t>& tb) {
-  std::vector<float> x = xa;
-  x.insert(x.end(), xb.begin(), xb.end());
-  std::vector<uint32_t> t = ta;
-  const uint32_t off = uint32_t(xa.size() / 3);
-  for (uint32_t v : tb) t.push_back(v + off);
-  auto count = [](const std::vector<float>& p, const std::vector<uint32_t>& q) {
-    const auto r = check_self_intersections(p.data(), p.size() / 3, q.data(), q.size() / 3);
-    return r.disjoint_pairs + r.shared_vertex_pairs;
-  };
-  return count(x, t) - count(xa, ta) - count(xb, tb);
-}
 
 }  // namespace
 
@@ -220,7 +205,7 @@ TEST_CASE("chapter 6 on Colin27: the eight deep nuclei together never overlap an
     ++steps;
     for (uint32_t o = 0; o < 8; ++o) REQUIRE(ffseg_test::extract(eb.e, o, &xyz[o], &tris[o]));
     for (uint32_t a = 0; a < 8; ++a)
-      for (uint32_t b = a + 1; b < 8; ++b) crossings += crossings_between(xyz[a], tris[a], xyz[b], tris[b]);
+      for (uint32_t b = a + 1; b < 8; ++b) crossings += ffseg_test::crossings_between(xyz[a], tris[a], xyz[b], tris[b]);
   }
   CHECK(st == FFSEG_CONVERGED);
   CHECK(crossings == 0);  // summed over every step and pair

@@ -21,21 +21,6 @@ namespace {
 
 const double kIdentity[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 
-// Crossing triangle pairs between two closed meshes: the two as one soup,
-// less what each has on its own.
-size_t crossings_between(const std::vector<float>& xa, const std::vector<uint32_t>& ta, const std::vector<float>& xb,
-                         const std::vector<uint32_t>& tb) {
-  std::vector<float> x = xa;
-  x.insert(x.end(), xb.begin(), xb.end());
-  std::vector<uint32_t> t = ta;
-  const uint32_t off = uint32_t(xa.size() / 3);
-  for (uint32_t v : tb) t.push_back(v + off);
-  auto count = [](const std::vector<float>& p, const std::vector<uint32_t>& q) {
-    const ffseg_test::SelfIntersectionReport r = ffseg_test::check_self_intersections(p.data(), p.size() / 3, q.data(), q.size() / 3);
-    return r.disjoint_pairs + r.shared_vertex_pairs;
-  };
-  return count(x, t) - count(xa, ta) - count(xb, tb);
-}
 
 std::vector<uint8_t> mask_of(ffseg_engine* e, uint32_t object, const int64_t dims[3]) {
   std::vector<uint8_t> m(size_t(dims[0] * dims[1] * dims[2]));
@@ -86,7 +71,7 @@ Run grow_pair(const Bar& bar, const double ca[3], const double cb[3], double r) 
       if (info.border_vertices[o] > run.max_border[o]) run.max_border[o] = info.border_vertices[o];
     REQUIRE(wa.look(eb.e, 0));
     REQUIRE(wb.look(eb.e, 1));
-    run.crossings += crossings_between(wa.xyz, wa.tris, wb.xyz, wb.tris);
+    run.crossings += ffseg_test::crossings_between(wa.xyz, wa.tris, wb.xyz, wb.tris);
     const std::vector<uint8_t> ma = mask_of(eb.e, 0, bar.dims), mb = mask_of(eb.e, 1, bar.dims);
     for (size_t q = 0; q < ma.size(); ++q) run.shared_voxels += ma[q] && mb[q];
   }

@@ -439,4 +439,18 @@ double surface_area(const float* xyz, std::size_t nv, const uint32_t* tris, std:
   return area;
 }
 
+std::size_t crossings_between(const std::vector<float>& xa, const std::vector<uint32_t>& ta,
+                              const std::vector<float>& xb, const std::vector<uint32_t>& tb) {
+  std::vector<float> x = xa;
+  x.insert(x.end(), xb.begin(), xb.end());
+  std::vector<uint32_t> t = ta;
+  const uint32_t off = uint32_t(xa.size() / 3);
+  for (uint32_t v : tb) t.push_back(v + off);
+  auto count = [](const std::vector<float>& p, const std::vector<uint32_t>& q) {
+    const SelfIntersectionReport r = check_self_intersections(p.data(), p.size() / 3, q.data(), q.size() / 3);
+    return r.disjoint_pairs + r.shared_vertex_pairs;
+  };
+  return count(x, t) - count(xa, ta) - count(xb, tb);
+}
+
 }  // namespace ffseg_test

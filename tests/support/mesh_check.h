@@ -41,6 +41,11 @@ SelfIntersectionReport check_self_intersections(const float* xyz, std::size_t nv
                                                 const uint32_t* tris, std::size_t nt,
                                                 std::size_t max_pairs = 16);
 
+// Crossing triangle pairs between two closed meshes a and b (each its own
+// vertex numbering): the two as one soup, less what each has on its own.
+std::size_t crossings_between(const std::vector<float>& xa, const std::vector<uint32_t>& ta,
+                              const std::vector<float>& xb, const std::vector<uint32_t>& tb);
+
 // Number of pairs of triangles that share no vertex and intersect
 // (= check_self_intersections().disjoint_pairs). If `first_pairs` is non-null
 // it receives up to `max_pairs` offending pairs (both kinds, see above).
