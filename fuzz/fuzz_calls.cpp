@@ -475,10 +475,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (ffseg_set_params(e, &p) != FFSEG_OK) finding("usable: set_params", 0);
   const ffseg_volume v = ph.volume(volume_kind);
   if (ffseg_set_volume(e, &v) != FFSEG_OK) finding("usable: set_volume", 0);
-  const double c[3] = {1.25, 14.5, 17.0};
+  // Disjoint spheres, 1 mm radius, 3 mm apart in the phantom's grid: init_sphere
+  // refuses one that crosses, encloses or lies inside another placed object,
+  // so a sphere refused for meeting a mesh the sequence left is placed again
+  // once every other object has moved to its own place.
   placed[objects - 1] = true;
-  for (uint32_t o = 0; o < objects; ++o)  // replaces whatever the sequence left
-    if (placed[o] && ffseg_init_sphere(e, o, c, 4.0) != FFSEG_OK) finding("usable: init_sphere", o);
+  std::vector<bool> again(objects, false);
+  for (int pass = 0; pass < 2; ++pass)
+    for (uint32_t o = 0; o < objects; ++o) {  // replaces whatever the sequence left
+      if (!placed[o] || (pass == 1 && !again[o])) continue;
+      const double c[3] = {-3.25 + 3.0 * (o % 4), 10.0 + 3.0 * (o / 4 % 4), 17.0 - 6.0 * (o / 16)};
+      const ffseg_status st = ffseg_init_sphere(e, o, c, 1.0);
+      if (pass == 0 && st == FFSEG_ERR_INVALID_ARGUMENT) again[o] = true;
+      else if (st != FFSEG_OK) finding("usable: init_sphere", o);
+    }
   uint64_t stepped = 0;
   for (bool b : placed) stepped += b ? 1 : 0;
   if (work + uint64_t(n) * n * stepped <= kWorkBudget) {
