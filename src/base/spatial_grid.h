@@ -11,8 +11,13 @@
 
 namespace ffseg {
 
-// floor(v) as an integer, inline (no libm call) for |v| < 2^63.
+// floor(v) as an integer, inline (no libm call). Beyond +-2^60 (a box of a
+// mesh gone far off, a sphere of 1e300 mm) it saturates there, and NaN reads
+// 0: converting such a double would be undefined, and the saturated cells
+// still tell a grid that the box does not fit (differences stay in range).
 inline int64_t floor_i64(double v) {
+  constexpr double kLimit = 1152921504606846976.0;  // 2^60
+  if (!(v > -kLimit && v < kLimit)) return v > 0 ? int64_t(1) << 60 : (v < 0 ? -(int64_t(1) << 60) : 0);
   const int64_t i = int64_t(v);
   return i - (v < double(i));
 }

@@ -312,3 +312,21 @@ TEST_CASE("regions: a sphere that overlaps a placed object is refused, naming it
   // Placing object 0 again where it was is not an overlap with itself.
   CHECK(ffseg_init_sphere(eb.e, 0, a, 4.5) == FFSEG_OK);
 }
+
+TEST_CASE("regions: a sphere of 1e300 mm beside a stepped object is refused without undefined arithmetic") {
+  // Fuzz finding (fuzz/open/calls_obstacle_grid_inf): the overlap test's grid
+  // converted coordinates of 1e300 mm to integer cells (undefined; UBSan
+  // aborts). Such a sphere encloses the placed object: refused.
+  const Bar bar;
+  ffseg_test::EngineBox eb(2, 8, int64_t(1) << 18);
+  REQUIRE(eb.e != nullptr);
+  ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
+  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  const double a[3] = {22.3, 15.1, 14.8}, b[3] = {44.6, 14.9, 15.2};
+  REQUIRE(ffseg_init_sphere(eb.e, 0, a, 3.0) == FFSEG_OK);
+  REQUIRE(ffseg_init_sphere(eb.e, 1, b, 3.0) == FFSEG_OK);
+  for (int s = 0; s < 3; ++s) REQUIRE(ffseg_step(eb.e, nullptr) >= 0);
+  CHECK(ffseg_init_sphere(eb.e, 1, b, 1e300) == FFSEG_ERR_INVALID_ARGUMENT);
+  CHECK(ffseg_init_sphere(eb.e, 1, b, 1.0) == FFSEG_OK);  // inside its own old place: no overlap with object 0
+  CHECK(ffseg_step(eb.e, nullptr) >= 0);
+}
