@@ -17,16 +17,18 @@ bool RegionMap::holds(const VolumeView& vol, const double* x, uint32_t nv, doubl
   if (!valid) return false;
   const int64_t* D = vol.dims();
   const double* h = vol.spacing();
+  // The inner part of the box; a face on the grid's border is no limit.
+  double lo_in[3], hi_in[3];
   for (int a = 0; a < 3; ++a) {
-    // The inner part along axis a; a face on the grid's border is no limit.
     const double m = margin_mm / h[a];
-    const double lo_in = lo[a] > 0 ? double(lo[a]) + m : -1e300;
-    const double hi_in = lo[a] + n[a] < D[a] ? double(lo[a] + n[a] - 1) - m : 1e300;
-    for (uint32_t v = 0; v < nv; ++v) {
-      double p[3];
-      vol.world_to_index(x + 3 * size_t(v), p);
-      if (!(p[a] >= lo_in && p[a] <= hi_in)) return false;
-    }
+    lo_in[a] = lo[a] > 0 ? double(lo[a]) + m : -1e300;
+    hi_in[a] = lo[a] + n[a] < D[a] ? double(lo[a] + n[a] - 1) - m : 1e300;
+  }
+  for (uint32_t v = 0; v < nv; ++v) {
+    double p[3];
+    vol.world_to_index(x + 3 * size_t(v), p);
+    for (int a = 0; a < 3; ++a)
+      if (!(p[a] >= lo_in[a] && p[a] <= hi_in[a])) return false;
   }
   return true;
 }

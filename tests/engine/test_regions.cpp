@@ -37,6 +37,11 @@ struct Bar {
       for (int64_t j = 7; j < 23; ++j)
         for (int64_t i = 10; i < 60; ++i) v[size_t((k * 30 + j) * 70 + i)] = 1;
   }
+  // Hands the bar to engine e as its volume (identity affine, 1 mm voxels).
+  void set(ffseg_engine* e) const {
+    ffseg_volume vol = ffseg_test::make_volume(v.data(), FFSEG_U8, dims, kIdentity);
+    REQUIRE(ffseg_set_volume(e, &vol) == FFSEG_OK);
+  }
   size_t count() const {
     size_t c = 0;
     for (uint8_t x : v) c += x;
@@ -56,8 +61,7 @@ Run grow_pair(const Bar& bar, const double ca[3], const double cb[3], double r) 
   Run run;
   ffseg_test::EngineBox eb(2, 12, int64_t(1) << 18);
   REQUIRE(eb.e != nullptr);
-  ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
-  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  bar.set(eb.e);
   REQUIRE(ffseg_init_sphere(eb.e, 0, ca, r) == FFSEG_OK);
   REQUIRE(ffseg_init_sphere(eb.e, 1, cb, r) == FFSEG_OK);
   ffseg_test::MeshWatch wa, wb;
@@ -155,8 +159,7 @@ TEST_CASE("regions: alone, each of the two objects fills the whole bar (what the
   for (int o = 0; o < 2; ++o) {
     ffseg_test::EngineBox eb(1, 12);
     REQUIRE(eb.e != nullptr);
-    ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
-    REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+    bar.set(eb.e);
     REQUIRE(ffseg_init_sphere(eb.e, 0, centres[o], 3.0) == FFSEG_OK);
     ffseg_status st = FFSEG_OK;
     for (int s = 0; s < 150 && st == FFSEG_OK; ++s) st = ffseg_step(eb.e, nullptr);
@@ -269,8 +272,7 @@ TEST_CASE("regions: a bounding box over max_roi_voxels is FFSEG_ERR_ROI_TOO_LARG
   const Bar bar;
   ffseg_test::EngineBox eb(2, 8, int64_t(1) << 12);
   REQUIRE(eb.e != nullptr);
-  ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
-  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  bar.set(eb.e);
   const double ca[3] = {22.3, 15.1, 14.8}, cb[3] = {44.6, 14.9, 15.2};
   REQUIRE(ffseg_init_sphere(eb.e, 0, ca, 3.0) == FFSEG_OK);
   // One object: no region, the bound is not needed.
@@ -292,8 +294,7 @@ TEST_CASE("regions: a sphere that overlaps a placed object is refused, naming it
   const Bar bar;
   ffseg_test::EngineBox eb(3, 8, int64_t(1) << 18);
   REQUIRE(eb.e != nullptr);
-  ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
-  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  bar.set(eb.e);
   const double a[3] = {22.3, 15.1, 14.8};
   REQUIRE(ffseg_init_sphere(eb.e, 0, a, 4.0) == FFSEG_OK);
   const double crossing[3] = {27.0, 15.0, 15.0};   // 4.7 mm apart, radii 4 + 3: the surfaces cross
@@ -320,8 +321,7 @@ TEST_CASE("regions: a sphere of 1e300 mm beside a stepped object is refused with
   const Bar bar;
   ffseg_test::EngineBox eb(2, 8, int64_t(1) << 18);
   REQUIRE(eb.e != nullptr);
-  ffseg_volume vol = ffseg_test::make_volume(bar.v.data(), FFSEG_U8, bar.dims, kIdentity);
-  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  bar.set(eb.e);
   const double a[3] = {22.3, 15.1, 14.8}, b[3] = {44.6, 14.9, 15.2};
   REQUIRE(ffseg_init_sphere(eb.e, 0, a, 3.0) == FFSEG_OK);
   REQUIRE(ffseg_init_sphere(eb.e, 1, b, 3.0) == FFSEG_OK);
