@@ -193,8 +193,9 @@ typedef struct ffseg_params {
                                     likelihood divided by its peak, and no competing class of the region more
                                     probable; (0, 1); default 0.2 */
   double sigma_floor_fraction;   /* lower bound on each Gaussian's standard deviation as a fraction of the
-                                    region's 1st-99th percentile range (a small sphere in clean data
-                                    under-estimates the spread); [0, 1]; default 0.05 */
+                                    1st-99th percentile range of the box of the search range around the
+                                    sphere's centre (a small sphere in clean data under-estimates the
+                                    spread); [0, 1]; default 0.04 */
   double bin_radius;             /* R of Algorithm 2, intensity units; 0 = 2 x the sigma floor; [0, 1e9]; default 0 */
   double bin_separation;         /* S of Algorithm 2, intensity units; 0 = 4 x the sigma floor; [0, 1e9]; default 0 */
   uint32_t partial_volume_steps; /* grey-level targets: once an object comes to rest, at most this many more

@@ -47,7 +47,7 @@
   X(smoothing_kappa, double, F64, 0.0, 0, 1e9, CC, "intensity/mm",                                        \
     "conductance contrast K of eq. 5.2.2; 0 = from the region's noise")                                   \
   X(intensity_gamma, double, F64, 0.2, 0, 1, OO, "", "Gamma: object where g(x) >= Gamma")                 \
-  X(sigma_floor_fraction, double, F64, 0.05, 0, 1, CC, "",                                                \
+  X(sigma_floor_fraction, double, F64, 0.04, 0, 1, CC, "",                                                \
     "lower bound on each Gaussian's sigma, fraction of the 1st-99th percentile range")                   \
   X(bin_radius, double, F64, 0.0, 0, 1e9, CC, "intensity", "R of Algorithm 2; 0 = 2 x the sigma floor")   \
   X(bin_separation, double, F64, 0.0, 0, 1e9, CC, "intensity", "S of Algorithm 2; 0 = 4 x the sigma floor") \

@@ -129,10 +129,10 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   if (st != ModelStatus::ok || !s.scene_competitors) return st;
 
   // The scene: the same mixture fit (Algorithm 2 + EM, same floor) over the
-  // requested crop box, subsampled uniformly into the sample buffer (the
+  // crop's statistics box (SmoothingSettings::stats_lo), subsampled uniformly into the sample buffer (the
   // sphere's samples are no longer needed).
-  const int64_t* blo = roi.lo();
-  const int64_t* bhi = roi.hi();
+  const int64_t* blo = roi.stats_lo();
+  const int64_t* bhi = roi.stats_hi();
   const uint64_t total =
       uint64_t(bhi[0] - blo[0]) * uint64_t(bhi[1] - blo[1]) * uint64_t(bhi[2] - blo[2]);
   const uint32_t scap = cap_ < kSceneSamples ? cap_ : kSceneSamples;

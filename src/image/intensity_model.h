@@ -21,11 +21,16 @@
 // variance is floored at
 //   sigma_floor^2 = sigma_n^2 + (rho * D)^2
 // with sigma_n the crop's robust noise estimate (SmoothedRoi::noise_sigma), D the
-// crop's robust intensity range p99 - p1 (the contrast scale of the scene) and
-// rho = sigma_floor_fraction (default 0.08): the tolerated within-organ
+// crop's robust intensity range p99 - p1 (the contrast scale of the scene),
+// both taken over the crop's statistics box (the engine: the search range
+// around the seed's centre, not the seed's radius plus it, so that the seed's
+// size does not decide which tissues set the scale), and
+// rho = sigma_floor_fraction (default 0.04): the tolerated within-organ
 // variation is a fixed fraction of the scene's contrast, plus the noise. With
-// Gamma = 0.05 an object then spans about +-2.45 * 0.08 = +-20% of the crop's
-// range around its mean: a neighbour must differ by more than that (T1 brain:
+// Gamma = 0.2 (|x - mu| < 1.79 sigma) an object then spans about +-1.79 * 0.04
+// = +-7% of the box's range around its mean beyond the noise (rho chosen on
+// the right-hemisphere Colin27 structures, issue 19): a neighbour must differ
+// by more than that (T1 brain:
 // grey vs white matter is about 40% of a crop's range; CT: liver vs fat 160 HU
 // of a 230-500 HU range). rho = 0 takes the sphere at face value. The floor is
 // applied inside EM (a constrained maximum-likelihood fit), so a component
@@ -34,7 +39,7 @@
 // Competing classes of the scene (fit(), scene_competitors, default on). The
 // object model alone says how far a value is from the sphere's intensities, not
 // whether some other tissue explains it better. fit() therefore also fits the
-// same mixture (Algorithm 2 + EM, the same floor) to the whole requested crop
+// same mixture (Algorithm 2 + EM, the same floor) to the crop's statistics box
 // (at most kSceneSamples voxels, uniform stride): the scene's tissue classes.
 // The scene components that claim an object component's mean (highest weighted
 // density there) are the object's own classes, of total scene weight a_o; the
@@ -81,7 +86,7 @@ struct IntensityModelSettings {
   double bin_separation = 0;          // S, intensity units; 0: 4 sigma_floor
   uint32_t bin_min_count = 0;         // N_m, samples; 0: max(8, 5% of the samples)
   uint32_t em_iterations = 100;
-  double sigma_floor_fraction = 0.08; // rho, fraction of the crop's p1..p99 range
+  double sigma_floor_fraction = 0.04; // rho, fraction of the statistics box's p1..p99 range (Params' default)
   bool scene_competitors = true;      // fit(): the crop's other classes compete (see the header note)
 };
 

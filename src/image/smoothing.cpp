@@ -162,6 +162,13 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
     ghi_[a] = D[a] - hi_[a] < int64_t(margin) ? D[a] : hi_[a] + int64_t(margin);
     ext[a] = ghi_[a] - glo_[a];
     ext_[a] = ext[a];
+    // The statistics' box: the given one within the requested box, else that box.
+    slo_[a] = lo_[a];
+    shi_[a] = hi_[a];
+    if (s.stats_lo && s.stats_hi) {
+      const int64_t l = std::max(lo_[a], s.stats_lo[a]), h = std::min(hi_[a], s.stats_hi[a]);
+      if (l < h) slo_[a] = l, shi_[a] = h;
+    }
   }
   needed_ = ext[0] * ext[1] * ext[2];  // <= the grid's voxel count, which fits
   if (needed_ > max_voxels_) {
@@ -241,7 +248,7 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
 void SmoothedRoi::estimate_noise(const VolumeView& vol) {
   int64_t e[3], count = 1;
   for (int a = 0; a < 3; ++a) {
-    e[a] = hi_[a] - lo_[a];
+    e[a] = shi_[a] - slo_[a];
     count *= e[a];
   }
   const int64_t cap = count < int64_t(kNoiseSamples) ? count : int64_t(kNoiseSamples);
@@ -252,15 +259,15 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
   for (int64_t s = 0; s < cap; ++s) {
     int64_t m = cap == count ? s : weyl_index(uint32_t(s), count);
     int64_t p[3];
-    p[0] = lo_[0] + m % e[0];
+    p[0] = slo_[0] + m % e[0];
     m /= e[0];
-    p[1] = lo_[1] + m % e[1];
-    p[2] = lo_[2] + m / e[1];
+    p[1] = slo_[1] + m % e[1];
+    p[2] = slo_[2] + m / e[1];
     const double x = vol.at(p[0], p[1], p[2]);
     if (!std::isfinite(x)) continue;  // non-finite voxels take no part in the statistics
     vals[ns++] = float(x);
     for (int a = 0; a < 3; ++a) {
-      if (p[a] + 1 >= hi_[a]) continue;
+      if (p[a] + 1 >= shi_[a]) continue;
       int64_t q[3] = {p[0], p[1], p[2]};
       ++q[a];
       const double d = std::fabs(vol.at(q[0], q[1], q[2]) - x);

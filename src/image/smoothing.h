@@ -62,6 +62,12 @@ struct SmoothingSettings {
   // requested box (noise_sigma(), robust_low/high() then read 0); the
   // smoothed values do not depend on them there.
   bool statistics = true;
+  // The box the statistics are taken over (clipped to the requested box);
+  // nullptr: the requested box. The engine passes a box of a fixed size
+  // around the seed's centre, so the seed's size does not change them
+  // (intensity_model.h, variance floor).
+  const int64_t* stats_lo = nullptr;
+  const int64_t* stats_hi = nullptr;
 };
 
 enum class RoiStatus : int {
@@ -96,6 +102,9 @@ class SmoothedRoi {
   // exact (full-volume-equal) values.
   bool contains(const int64_t lo[3], const int64_t hi[3]) const;
 
+  // The box of the statistics (clipped to the requested one).
+  const int64_t* stats_lo() const { return slo_; }
+  const int64_t* stats_hi() const { return shi_; }
   // The requested box (clipped) and the stored, grown box [data_lo, data_hi).
   const int64_t* lo() const { return lo_; }
   const int64_t* hi() const { return hi_; }
@@ -196,6 +205,7 @@ class SmoothedRoi {
   double h_[3] = {1, 1, 1};
   double sigma_n_ = 0, kappa_ = 0, dt_ = 0;
   double p_lo_ = 0, p_hi_ = 0, vmin_ = 0, vmax_ = 0;
+  int64_t slo_[3] = {0, 0, 0}, shi_[3] = {0, 0, 0};
 };
 
 // Index box [lo, hi) covering n points (3n doubles, mm) grown by grow_mm in

@@ -32,19 +32,19 @@ TEST_CASE("workspace: pinned sizes of a few configurations (default max_roi_voxe
   // number here and in BENCHMARKS/README if quoted). Measured at 0.2.0 plus
   // the bounding regions of several objects (thesis chapter 6), with the C
   // API's 128-byte workspace guard:
-  //   binary n = 12, 8 objects:   230 699 328 B (220.0 MiB: 2 442 304 B before the
+  //   binary n = 12, 8 objects:   230 699 712 B (220.0 MiB: 2 442 304 B before the
   //                                 regions, which take 22 bytes per max_roi_voxels
   //                                 voxel for the shared fast marching and 4 per
   //                                 object for its arrival times, and the contact
   //                                 test's obstacles)
-  //   intensity n = 12, 1 object:  20 122 048 B ( 19.2 MiB; one object has no
+  //   intensity n = 12, 1 object:  20 122 112 B ( 19.2 MiB; one object has no
   //                                 region, 512 B of bookkeeping)
-  //   intensity n = 33, 1 object:  38 717 056 B ( 36.9 MiB)
-  //   binary n = 33, 1 object:     20 588 160 B ( 19.6 MiB; the envelope factor dominates)
-  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 230699328u);
-  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20122048u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38717056u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20588160u);
+  //   intensity n = 33, 1 object:  38 717 120 B ( 36.9 MiB)
+  //   binary n = 33, 1 object:     20 588 224 B ( 19.6 MiB; the envelope factor dominates)
+  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 230699712u);
+  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20122112u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38717120u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20588224u);
 }
 
 TEST_CASE("workspace: grey-level buffers are per object and only in intensity configurations") {

@@ -74,6 +74,7 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
   std::vector<uint8_t> mask(N);
   REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
   res.m = ffseg_tools::compare_masks(mask.data(), truth.data(), aal.dims, aal.spacing);
+  if (o.mask_out) o.mask_out->swap(mask);
   return res;
 }
 

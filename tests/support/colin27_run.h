@@ -5,6 +5,7 @@
 #pragma once
 #include <cstddef>
 #include <functional>
+#include <vector>
 
 #include "ffseg.h"
 #include "metrics.h"
@@ -35,6 +36,7 @@ struct StructureRunOptions {
   bool verbose = false;
   bool print_steps = false;
   std::function<void(ffseg_params&)> tune;
+  std::vector<uint8_t>* mask_out = nullptr;  // the result's label mask on the AAL grid
 };
 
 ffseg_volume volume_of(const ffseg_tools::NiftiImage& img);

@@ -10,7 +10,7 @@
 //   FFSEG_GAMMA=0.3 FFSEG_SIGF=0.1 FFSEG_VERBOSE=1 build/experiment_model_diag
 //
 // Environment: FFSEG_GAMMA acceptance level of g (0.2), FFSEG_SIGF
-// sigma_floor_fraction (0.05), FFSEG_VERBOSE the label's intensity quantiles
+// sigma_floor_fraction (0.04), FFSEG_VERBOSE the label's intensity quantiles
 // and the fitted components.
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
