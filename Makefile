@@ -64,13 +64,13 @@ DEMO_OUT ?= out
 demo: deps
 	$(MAKE) build
 	mkdir -p $(DEMO_OUT)
-	./$(BUILD)/ffseg segment $(MRI)/ch2.nii.gz --sphere-from-label $(MRI)/aal.nii.gz:73 --mesh-resolution 12 \
+	./$(BUILD)/ffseg segment $(MRI)/ch2.nii.gz --sphere-from-label $(MRI)/aal.nii.gz:73 \
 	  --truth $(MRI)/aal.nii.gz --truth-labels 73 --names putamen_L --out $(DEMO_OUT)/putamen_L --force
 	./$(BUILD)/ffseg segment $(MRI)/ch2bet.nii.gz --target binary --sphere 0,-17,19,80 \
 	  --names brain --out $(DEMO_OUT)/brain --force
 	@echo; echo "demo: the eight deep nuclei (AAL $(NUCLEI_LABELS)) together in one engine"
 	@./$(BUILD)/ffseg segment $(MRI)/ch2.nii.gz $(foreach l,$(NUCLEI_LABELS),--sphere-from-label $(MRI)/aal.nii.gz:$(l)) \
-	  --mesh-resolution 12 --truth $(MRI)/aal.nii.gz --names $(NUCLEI_NAMES) \
+	  --truth $(MRI)/aal.nii.gz --names $(NUCLEI_NAMES) \
 	  --regions $(DEMO_OUT)/nuclei_regions.nii.gz --out $(DEMO_OUT)/nuclei --force --quiet
 	@echo; echo "demo: outputs (meshes, labels.nii.gz, overlay.png, report.json) in $(DEMO_OUT)/putamen_L, $(DEMO_OUT)/brain and $(DEMO_OUT)/nuclei (bounding regions: $(DEMO_OUT)/nuclei_regions.nii.gz)"
 

@@ -855,3 +855,61 @@ TEST_CASE("cli: a volume of a single slice is refused (exit 3) with the engine's
   CHECK(r.code == 3);
   CHECK(r.err.find("a single slice") != std::string::npos);
 }
+
+TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small ball keeps the first run, a large one runs again finer") {
+  Scratch s;
+  {  // kBall (9 mm on 1-1.5 mm voxels) asks for about 9: the first run at 12 stands.
+    const Balls b = make_balls({kBall}, {1});
+    write(s / "small.nii.gz", b.image);
+    const Run r = ffseg(s, "segment " + (s / "small.nii.gz") + " --target binary --sphere 4,27,12,4 --out " + (s / "a"));
+    INFO("stderr: " << r.err);
+    REQUIRE(r.code == 0);
+    CHECK(r.err.find("segmenting again") == std::string::npos);
+    const Json rep = parse_json(slurp(s / "a/report.json"));
+    const Json* cfg = rep.get("config");
+    REQUIRE(cfg != nullptr);
+    CHECK(cfg->get("mesh_resolution")->as_number() == 12);
+    CHECK(cfg->get("mesh_resolution_source")->as_string() == "automatic");
+    CHECK(cfg->get("asked_mesh_resolution")->as_number() >= 12);
+    CHECK(cfg->get("asked_mesh_resolution")->as_number() <= 18);
+  }
+  {  // A 14 mm ball on 0.5 mm voxels (area 2463 mm^2, quads of 0.75 mm): n = 27.
+    Balls b = make_balls({}, {});
+    NiftiImage& img = b.image;
+    img.dims[0] = img.dims[1] = img.dims[2] = 64;
+    const double A[16] = {0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1};
+    std::memcpy(img.index_to_world, A, sizeof A);
+    for (int a = 0; a < 3; ++a) img.spacing[a] = img.pixdim[a + 1] = 0.5;
+    img.data.assign(img.voxel_count(), 0);
+    size_t idx = 0;
+    for (int k = 0; k < 64; ++k)
+      for (int j = 0; j < 64; ++j)
+        for (int i = 0; i < 64; ++i, ++idx) {
+          const double x = 0.5 * i - 16, y = 0.5 * j - 16, z = 0.5 * k - 16;
+          img.data[idx] = x * x + y * y + z * z <= 14.0 * 14.0 ? 100 : 0;
+        }
+    write(s / "large.nii.gz", img);
+    const Run r = ffseg(s, "segment " + (s / "large.nii.gz") + " --target binary --sphere 16,16,16,4 --out " + (s / "b"));
+    INFO("stderr: " << r.err);
+    REQUIRE(r.code == 0);
+    CHECK(r.err.find("segmenting again at it") != std::string::npos);
+    const Json rep = parse_json(slurp(s / "b/report.json"));
+    const Json* cfg = rep.get("config");
+    REQUIRE(cfg != nullptr);
+    const double n = cfg->get("mesh_resolution")->as_number();
+    CHECK(n >= 25);
+    CHECK(n <= 29);
+    CHECK(cfg->get("asked_mesh_resolution")->as_number() == n);
+    const Json* objs = rep.get("objects");
+    REQUIRE(objs != nullptr);
+    CHECK((*objs)[0].get("vertices")->as_number() == 6 * n * n);
+  }
+  {  // --mesh-resolution fixes it.
+    const Run r = ffseg(s, "segment " + (s / "small.nii.gz") + " --target binary --sphere 4,27,12,4 --mesh-resolution 9 --out " + (s / "c"));
+    REQUIRE(r.code == 0);
+    const Json rep = parse_json(slurp(s / "c/report.json"));
+    CHECK(rep.get("config")->get("mesh_resolution")->as_number() == 9);
+    CHECK(rep.get("config")->get("mesh_resolution_source")->as_string() == "--mesh-resolution");
+    CHECK(rep.get("config")->get("asked_mesh_resolution") == nullptr);
+  }
+}

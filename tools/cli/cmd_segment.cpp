@@ -21,6 +21,7 @@
 #include "metrics.h"
 #include "overlay.h"
 #include "segment_options.h"
+#include "mesh_resolution.h"
 #include "segment_outputs.h"
 #include "report_json.h"
 
@@ -39,10 +40,13 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 struct Workspace {
   void* p = nullptr;
   ffseg_engine* e = nullptr;
-  ~Workspace() {
+  void release() {
     ffseg_destroy(e);
     std::free(p);
+    e = nullptr;
+    p = nullptr;
   }
+  ~Workspace() { release(); }
 };
 
 // A temporary file removed on scope exit unless committed.
@@ -142,7 +146,7 @@ int cmd_segment(int argc, char** argv) {
   ffseg_params params;
   ffseg_params_init_default(&params);
   params.target_mode = kDefaultTarget;
-  uint32_t mesh_resolution = kDefaultMeshResolution;
+  uint32_t mesh_resolution = 0;  // automatic (mesh_resolution.h)
   int64_t max_steps = kDefaultMaxSteps, max_roi = -1;
   ffseg_tools::MeshFormat mesh_format = ffseg_tools::MeshFormat::Ply;
   bool force = false, quiet = false, have_truth_labels = false, have_labels_format = false;
@@ -167,7 +171,8 @@ int cmd_segment(int argc, char** argv) {
     } else if (tok == "-q" || tok == "--quiet") {
       quiet = true;
     } else if (tok == "--mesh-resolution") {
-      mesh_resolution = uint32_t(parse_int(args.value(tok), tok, 2, 1024));
+      const std::string v = args.value(tok);
+      mesh_resolution = v == "auto" ? 0 : uint32_t(parse_int(v, tok, 2, 1024));
     } else if (tok == "--max-steps") {
       max_steps = parse_int(args.value(tok), tok, 1, 1000000);
     } else if (tok == "--max-roi-voxels") {
@@ -289,102 +294,141 @@ int cmd_segment(int argc, char** argv) {
   const double t_read = seconds_since(t_start);
   check_interrupted();
 
-  // ---- engine -------------------------------------------------------------------
+  // ---- engine, deformation ------------------------------------------------------
+  // Without --mesh-resolution the first run at kFirstResolution measures each
+  // object's surface and the run is made again when they ask for a finer mesh
+  // (mesh_resolution.h).
   const uint64_t nvox = img.voxel_count();
+  const bool auto_resolution = mesh_resolution == 0;
+  uint32_t run_resolution = auto_resolution ? kFirstResolution : mesh_resolution;
+  uint32_t wanted_resolution = 0;  // automatic: what the first run's surfaces asked for
+  ffseg_status st = FFSEG_OK;
   ffseg_config cfg;
-  ffseg_config_init_default(&cfg);
-  cfg.max_objects = nobj;
-  cfg.mesh_resolution = mesh_resolution;
-  cfg.max_roi_voxels = max_roi >= 0 ? max_roi : std::min<int64_t>(int64_t(nvox), kMaxRoiCap);
-  // A binary target needs no grey-level buffers: a much smaller workspace.
-  cfg.target_mode = params.target_mode == FFSEG_TARGET_BINARY ? FFSEG_TARGET_BINARY : FFSEG_TARGET_INTENSITY;
   size_t ws_bytes = 0;
-  ffseg_status st = ffseg_workspace_size(&cfg, &ws_bytes);
-  if (st != FFSEG_OK) {
-    const std::string detail = ffseg_last_error(nullptr);
-    fail(st == FFSEG_ERR_INVALID_ARGUMENT || st == FFSEG_ERR_CONFIG_TOO_LARGE ? kExitUsage : kExitEngine,
-         std::string("engine configuration refused: ") + ffseg_status_string(st) + (detail.empty() ? "" : " (" + detail + ")"));
-  }
   Workspace ws;
-  ws.p = std::aligned_alloc(64, (ws_bytes + 63) / 64 * 64);
-  if (!ws.p) fail(kExitEngine, "cannot allocate the engine workspace of " + std::to_string(ws_bytes) + " bytes");
-  st = ffseg_create(&cfg, ws.p, ws_bytes, &ws.e);
-  if (st != FFSEG_OK) engine_fail(nullptr, st, "ffseg_create");
-
-  st = ffseg_set_params(ws.e, &params);
-  if (st != FFSEG_OK) {
-    const std::string detail = ffseg_last_error(ws.e);
-    fail(st == FFSEG_ERR_INVALID_ARGUMENT ? kExitUsage : kExitEngine,
-         std::string("the engine refused the parameters: ") + (detail.empty() ? ffseg_status_string(st) : detail));
-  }
-
-  // The volume, zero-copy from the NIfTI buffer (i fastest, contiguous).
   ffseg_volume vol;
-  std::memset(&vol, 0, sizeof vol);
-  vol.struct_size = sizeof vol;
-  vol.voxel_type = uint32_t(img.voxel_type);
-  vol.data = img.data.data();
-  vol.data_bytes = img.data.size();
-  vol.offset = 0;
-  const int64_t bpv = img.bytes_per_voxel;
-  for (int a = 0; a < 3; ++a) vol.dims[a] = img.dims[a];
-  vol.strides[0] = bpv;
-  vol.strides[1] = bpv * img.dims[0];
-  vol.strides[2] = bpv * img.dims[0] * int64_t(img.dims[1]);
-  std::memcpy(vol.index_to_world, img.index_to_world, sizeof vol.index_to_world);
-  vol.rescale_slope = img.scl_slope;
-  vol.rescale_intercept = img.scl_inter;
-  st = ffseg_set_volume(ws.e, &vol);
-  if (st == FFSEG_ERR_INVALID_VOLUME)
-    fail(kExitInput, volume_path + " is not usable: " + ffseg_last_error(ws.e));
-  if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_set_volume");
-
   std::vector<std::array<double, 3>> centres_mm(nobj);
-  for (uint32_t k = 0; k < nobj; ++k) {
-    const SphereArg& s = spheres[k];
-    centres_mm[k] = s.voxel ? voxel_to_world(img.index_to_world, s.c)
-                            : std::array<double, 3>{s.c[0], s.c[1], s.c[2]};
-    st = ffseg_init_sphere(ws.e, k, centres_mm[k].data(), s.c[3]);
-    if (st == FFSEG_ERR_SPHERE_OUTSIDE || st == FFSEG_ERR_INVALID_ARGUMENT) {
-      const std::string detail = ffseg_last_error(ws.e);
-      fail(kExitUsage, "object " + std::to_string(k + 1) + " (" + s.text + "): " +
-                           (st == FFSEG_ERR_SPHERE_OUTSIDE ? "the sphere does not meet the volume grid (" + world_extent(img) + ")"
-                                                           : (detail.empty() ? ffseg_status_string(st) : detail)));
-    }
-    if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_init_sphere (object " + std::to_string(k + 1) + ")");
-  }
-  const double t_setup = seconds_since(t_start) - t_read;
-
-  // ---- deformation ----------------------------------------------------------------
+  double t_setup = 0, t_stepping_before = 0;
   uint64_t stage_us[FFSEG_STAGE_COUNT] = {0};
   ffseg_step_info info;
-  std::memset(&info, 0, sizeof info);
-  info.struct_size = sizeof info;
   bool converged = false;
   int64_t steps = 0;
-  std::vector<uint32_t> border_vertices(nobj, 0);  // at the last step each object moved
-  const auto t_step0 = std::chrono::steady_clock::now();
-  {
-    Progress progress(!quiet, max_steps, nobj);
-    for (int64_t s = 0; s < max_steps; ++s) {
-      check_interrupted();
-      st = ffseg_step(ws.e, &info);
-      if (st == FFSEG_ERR_NOT_IMPLEMENTED) {
-        const std::string detail = ffseg_last_error(ws.e);
-        fail(kExitEngine, std::string("this engine build does not implement --target ") +
-                              target_name(params.target_mode) + " yet" + (detail.empty() ? "" : " (" + detail + ")") +
-                              (params.target_mode != FFSEG_TARGET_BINARY ? "; use --target binary on a binary mask" : ""));
-      }
-      if (st < 0) engine_fail(ws.e, st, "step " + std::to_string(s + 1));
-      steps = s + 1;
-      for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) stage_us[g] += info.stage_us[g];
-      for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k)
-        if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0)
-          border_vertices[k] = info.border_vertices[k];
-      converged = st == FFSEG_CONVERGED;
-      progress.step(info, seconds_since(t_step0), converged || steps == max_steps);
-      if (converged) break;
+  std::vector<uint32_t> border_vertices;  // at the last step each object moved
+  auto t_step0 = std::chrono::steady_clock::now();
+  for (int pass = 0;; ++pass) {
+    // ---- engine -------------------------------------------------------------------
+    ffseg_config_init_default(&cfg);
+    cfg.max_objects = nobj;
+    cfg.mesh_resolution = run_resolution;
+    cfg.max_roi_voxels = max_roi >= 0 ? max_roi : std::min<int64_t>(int64_t(nvox), kMaxRoiCap);
+    // A binary target needs no grey-level buffers: a much smaller workspace.
+    cfg.target_mode = params.target_mode == FFSEG_TARGET_BINARY ? FFSEG_TARGET_BINARY : FFSEG_TARGET_INTENSITY;
+    ws_bytes = 0;
+    st = ffseg_workspace_size(&cfg, &ws_bytes);
+    if (st != FFSEG_OK) {
+      const std::string detail = ffseg_last_error(nullptr);
+      fail(st == FFSEG_ERR_INVALID_ARGUMENT || st == FFSEG_ERR_CONFIG_TOO_LARGE ? kExitUsage : kExitEngine,
+           std::string("engine configuration refused: ") + ffseg_status_string(st) + (detail.empty() ? "" : " (" + detail + ")"));
     }
+    ws.release();
+    ws.p = std::aligned_alloc(64, (ws_bytes + 63) / 64 * 64);
+    if (!ws.p) fail(kExitEngine, "cannot allocate the engine workspace of " + std::to_string(ws_bytes) + " bytes");
+    st = ffseg_create(&cfg, ws.p, ws_bytes, &ws.e);
+    if (st != FFSEG_OK) engine_fail(nullptr, st, "ffseg_create");
+
+    st = ffseg_set_params(ws.e, &params);
+    if (st != FFSEG_OK) {
+      const std::string detail = ffseg_last_error(ws.e);
+      fail(st == FFSEG_ERR_INVALID_ARGUMENT ? kExitUsage : kExitEngine,
+           std::string("the engine refused the parameters: ") + (detail.empty() ? ffseg_status_string(st) : detail));
+    }
+
+    // The volume, zero-copy from the NIfTI buffer (i fastest, contiguous).
+    std::memset(&vol, 0, sizeof vol);
+    vol.struct_size = sizeof vol;
+    vol.voxel_type = uint32_t(img.voxel_type);
+    vol.data = img.data.data();
+    vol.data_bytes = img.data.size();
+    vol.offset = 0;
+    const int64_t bpv = img.bytes_per_voxel;
+    for (int a = 0; a < 3; ++a) vol.dims[a] = img.dims[a];
+    vol.strides[0] = bpv;
+    vol.strides[1] = bpv * img.dims[0];
+    vol.strides[2] = bpv * img.dims[0] * int64_t(img.dims[1]);
+    std::memcpy(vol.index_to_world, img.index_to_world, sizeof vol.index_to_world);
+    vol.rescale_slope = img.scl_slope;
+    vol.rescale_intercept = img.scl_inter;
+    st = ffseg_set_volume(ws.e, &vol);
+    if (st == FFSEG_ERR_INVALID_VOLUME)
+      fail(kExitInput, volume_path + " is not usable: " + ffseg_last_error(ws.e));
+    if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_set_volume");
+
+    for (uint32_t k = 0; k < nobj; ++k) {
+      const SphereArg& s = spheres[k];
+      centres_mm[k] = s.voxel ? voxel_to_world(img.index_to_world, s.c)
+                              : std::array<double, 3>{s.c[0], s.c[1], s.c[2]};
+      st = ffseg_init_sphere(ws.e, k, centres_mm[k].data(), s.c[3]);
+      if (st == FFSEG_ERR_SPHERE_OUTSIDE || st == FFSEG_ERR_INVALID_ARGUMENT) {
+        const std::string detail = ffseg_last_error(ws.e);
+        fail(kExitUsage, "object " + std::to_string(k + 1) + " (" + s.text + "): " +
+                             (st == FFSEG_ERR_SPHERE_OUTSIDE ? "the sphere does not meet the volume grid (" + world_extent(img) + ")"
+                                                             : (detail.empty() ? ffseg_status_string(st) : detail)));
+      }
+      if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_init_sphere (object " + std::to_string(k + 1) + ")");
+    }
+    t_setup = seconds_since(t_start) - t_read - t_stepping_before;
+
+    // ---- deformation ----------------------------------------------------------------
+    for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) stage_us[g] = 0;
+    std::memset(&info, 0, sizeof info);
+    info.struct_size = sizeof info;
+    converged = false;
+    steps = 0;
+    border_vertices.assign(nobj, 0);
+    t_step0 = std::chrono::steady_clock::now();
+    {
+      Progress progress(!quiet, max_steps, nobj);
+      for (int64_t s = 0; s < max_steps; ++s) {
+        check_interrupted();
+        st = ffseg_step(ws.e, &info);
+        if (st == FFSEG_ERR_NOT_IMPLEMENTED) {
+          const std::string detail = ffseg_last_error(ws.e);
+          fail(kExitEngine, std::string("this engine build does not implement --target ") +
+                                target_name(params.target_mode) + " yet" + (detail.empty() ? "" : " (" + detail + ")") +
+                                (params.target_mode != FFSEG_TARGET_BINARY ? "; use --target binary on a binary mask" : ""));
+        }
+        if (st < 0) engine_fail(ws.e, st, "step " + std::to_string(s + 1));
+        steps = s + 1;
+        for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) stage_us[g] += info.stage_us[g];
+        for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k)
+          if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0)
+            border_vertices[k] = info.border_vertices[k];
+        converged = st == FFSEG_CONVERGED;
+        progress.step(info, seconds_since(t_step0), converged || steps == max_steps);
+        if (converged) break;
+      }
+    }
+    if (!auto_resolution || pass > 0) break;
+    // How fine a mesh the surfaces ask for.
+    wanted_resolution = kFirstResolution;
+    for (uint32_t k = 0; k < nobj; ++k) {
+      size_t nv = 0, nt = 0;
+      st = ffseg_extract_mesh(ws.e, k, nullptr, 0, nullptr, 0, &nv, &nt);
+      if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_extract_mesh");
+      std::vector<float> xyz(nv * 3);
+      std::vector<uint32_t> tris(nt * 3);
+      st = ffseg_extract_mesh(ws.e, k, xyz.data(), nv, tris.data(), nt, &nv, &nt);
+      if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_extract_mesh");
+      const double h = std::min(img.spacing[0], std::min(img.spacing[1], img.spacing[2]));
+      wanted_resolution = std::max(wanted_resolution, resolution_for_area(mesh_area_mm2(xyz, tris), h));
+    }
+    const uint32_t again = rerun_resolution(wanted_resolution);
+    if (again == 0) break;
+    if (!quiet)
+      std::fprintf(stderr, "ffseg: the surfaces ask for mesh resolution %u; segmenting again at it "
+                   "(--mesh-resolution N to fix one)\n", again);
+    t_stepping_before += seconds_since(t_step0);
+    run_resolution = again;
   }
   const double t_stepping = seconds_since(t_step0);
   check_interrupted();
@@ -533,7 +577,13 @@ int cmd_segment(int argc, char** argv) {
   rep.set("workspace_bytes", uint64_t(ws_bytes));
   Json cj = Json::object();
   cj.set("max_objects", cfg.max_objects);
-  cj.set("mesh_resolution", cfg.mesh_resolution);
+  cj.set("mesh_resolution", run_resolution);
+  cj.set("mesh_resolution_source", auto_resolution ? "automatic" : "--mesh-resolution");
+  if (auto_resolution) {
+    // The first run's resolution and what its surfaces asked for (mesh_resolution.h).
+    cj.set("first_mesh_resolution", kFirstResolution);
+    cj.set("asked_mesh_resolution", wanted_resolution);
+  }
   cj.set("max_roi_voxels", cfg.max_roi_voxels);
   rep.set("config", std::move(cj));
   rep.set("parameters", params_json(params));

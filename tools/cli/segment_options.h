@@ -19,7 +19,6 @@ namespace ffseg_cli {
 // the goal; an engine without it answers FFSEG_ERR_NOT_IMPLEMENTED, which is
 // reported with a hint to use --target binary.
 constexpr uint32_t kDefaultTarget = FFSEG_TARGET_INTENSITY;
-constexpr uint32_t kDefaultMeshResolution = 33;
 constexpr int64_t kDefaultMaxSteps = 200;
 constexpr int64_t kMaxRoiCap = int64_t(1) << 26;
 

@@ -1,0 +1,38 @@
+// The mesh resolution `ffseg segment` picks when --mesh-resolution is not
+// given: from the size the surface reaches, not one number for every organ.
+//
+// A first run at kFirstResolution shows how large each object becomes; the
+// resolution that gives its surface quads of about kEdgeVoxels voxel spacings
+// a side follows from its area A (6 n^2 quads): n = ceil(sqrt(A / 6) / h).
+// When the largest object asks for more than kRerunFactor times the first
+// resolution, the run is made again from the same spheres at that resolution;
+// else the first run stands. Small structures (Colin27's deep nuclei, 8 ml)
+// ask for 13-15 and keep the first run, which is also the best fixed
+// resolution there (BENCHMARKS.md section 4: mean Dice 0.541 at n = 12
+// against 0.521-0.534 at 16, 21, 33); the Colin27 brain (ch2bet) asks for
+// more than the cap, 49, the resolution of its chapter-4 test (Dice 0.988).
+#ifndef FFSEG_CLI_MESH_RESOLUTION_H
+#define FFSEG_CLI_MESH_RESOLUTION_H
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace ffseg_cli {
+
+constexpr uint32_t kFirstResolution = 12;
+constexpr uint32_t kMaxAutoResolution = 49;
+constexpr double kEdgeVoxels = 1.5;
+constexpr double kRerunFactor = 1.5;
+
+// Area (mm^2) of a triangle mesh: xyz 3 floats per vertex, tris 3 indices each.
+double mesh_area_mm2(const std::vector<float>& xyz, const std::vector<uint32_t>& tris);
+// The resolution whose quads on a surface of area_mm2 are kEdgeVoxels *
+// spacing_mm a side, within [kFirstResolution, kMaxAutoResolution].
+uint32_t resolution_for_area(double area_mm2, double spacing_mm);
+// The resolution to run again at after the first run, or 0 to keep it.
+uint32_t rerun_resolution(uint32_t wanted);
+
+}  // namespace ffseg_cli
+
+#endif
