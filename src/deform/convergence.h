@@ -24,6 +24,7 @@ class Convergence {
     converged_ = false;
     refining_ = false;
     refine_steps_ = 0;
+    creep_ = 0;
   }
   // A new sphere: also forget the polishing phase.
   void reset() {
@@ -48,6 +49,7 @@ class Convergence {
   bool polish_ = false;
   bool refining_ = false;
   uint32_t refine_steps_ = 0;
+  uint32_t creep_ = 0;
   bool converged_ = false;
 };
 

@@ -112,3 +112,41 @@ TEST_CASE("convergence, grey-level: refining after the first rest, ended by a re
     CHECK(c.record(r, 0.5, 0, nv));         // 2
   }
 }
+
+TEST_CASE("convergence, grey-level: a creep below twice the threshold for three steps is a rest; binary targets ignore it") {
+  const uint32_t nv = 1000;
+  {
+    const ConvergenceRule r = grey_rule(0);
+    Convergence c;
+    CHECK_FALSE(c.record(r, 0.06, 10, nv));
+    CHECK_FALSE(c.record(r, 0.09, 10, nv));
+    CHECK_FALSE(c.record(r, 0.2, 10, nv));  // a real move breaks the run
+    CHECK_FALSE(c.record(r, 0.06, 10, nv));
+    CHECK_FALSE(c.record(r, 0.07, 10, nv));
+    CHECK(c.record(r, 0.06, 10, nv));  // the third in a row
+  }
+  {
+    const ConvergenceRule r = grey_rule(2);  // the creep's rest starts the partial-volume steps
+    Convergence c;
+    for (int k = 0; k < 3; ++k) CHECK_FALSE(c.record(r, 0.07, 10, nv));
+    CHECK(c.refining());
+    CHECK_FALSE(c.record(r, 0.07, 10, nv));  // counted afresh: 1 of the 2 steps
+    CHECK(c.record(r, 0.07, 10, nv));        // the budget is spent
+  }
+  {
+    const ConvergenceRule r = binary_rule();
+    Convergence c;
+    for (int k = 0; k < 10; ++k) CHECK_FALSE(c.record(r, 0.07, 5, nv));
+    CHECK_FALSE(c.polishing());
+  }
+  {  // restart forgets the run
+    const ConvergenceRule r = grey_rule(0);
+    Convergence c;
+    CHECK_FALSE(c.record(r, 0.07, 10, nv));
+    CHECK_FALSE(c.record(r, 0.07, 10, nv));
+    c.restart();
+    CHECK_FALSE(c.record(r, 0.07, 10, nv));
+    CHECK_FALSE(c.record(r, 0.07, 10, nv));
+    CHECK(c.record(r, 0.07, 10, nv));
+  }
+}

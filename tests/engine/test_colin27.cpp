@@ -116,10 +116,12 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
   // 4.29, 0.511 / 3.16, 0.563 / 3.19, 0.569 / 2.61, 0.630 / 2.29, 0.621 /
   // 2.36, 0.544 / 3.38, 0.478 / 4.29. The caudate L is now below the classic
   // 0.649 (over six perturbed seeds too: 0.633), the thalami lower, the
-  // hippocampus L higher.
+  // hippocampus L higher. With grey-level creep counted as rest
+  // (convergence.cpp): 0.412 / 4.29, 0.531 / 3.15, 0.597 / 2.65, 0.569 /
+  // 2.61, 0.610 / 2.52, 0.623 / 2.38, 0.544 / 3.38, 0.478 / 4.29.
   const Case cases[] = {{73, "putamen L", 0.37, 4.7},    {74, "putamen R", 0.45, 4.0},
                         {77, "thalamus L", 0.53, 3.6},   {78, "thalamus R", 0.54, 3.0},
-                        {71, "caudate L", 0.60, 2.7},    {72, "caudate R", 0.59, 2.9},
+                        {71, "caudate L", 0.58, 2.7},    {72, "caudate R", 0.59, 2.9},
                         {37, "hippocampus L", 0.47, 4.2}, {38, "hippocampus R", 0.45, 4.4}};
   std::printf("| structure | AAL | Dice | VOE | ASSD mm | HD95 mm | steps | ms |\n|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
@@ -232,16 +234,19 @@ TEST_CASE("chapter 6 on Colin27: the eight deep nuclei together never overlap an
   CHECK(shared == 0);
   // Issue 16 measured 0.462 alone, 0.491 together. Since the model's
   // statistics come from the search range around the seed's centre (issue 19)
-  // the nuclei alone reach 0.475 and together 0.485: the regions still gain,
-  // by less.
-  CHECK(together >= alone + 0.005);
+  // the nuclei alone reach 0.475 and together 0.485, and with grey-level
+  // creep counted as rest (convergence.cpp) 0.479 and 0.482: the regions now
+  // gain little Dice; what they still give is no shared voxel (18,870 alone).
+  CHECK(together >= alone - 0.01);
 }
 
 TEST_CASE("chapter 5 on Colin27: the result depends little on the seed (0.6x, 1x, 1.5x the radius, 1 mm shifts)") {
   // Issue 19 asks pairwise Dice >= 0.85 between the six seeds of every
   // structure; not reached. Measured (n = 12): mean pairwise Dice per
-  // structure 0.865, 0.894, 0.846, 0.828, 0.815, 0.830, 0.898, 0.720 (mean
-  // 0.837, worst pair 0.468, hippocampus R); before the statistics box
+  // structure 0.872, 0.902, 0.868, 0.862, 0.831, 0.851, 0.901, 0.731 (mean
+  // 0.852, worst pair 0.472, hippocampus R); with the statistics box alone
+  // 0.865, 0.894, 0.846, 0.828, 0.815, 0.830, 0.898, 0.720 (0.837, 0.468);
+  // before the statistics box
   // (issue 19) 0.838, 0.908, 0.755, 0.690, 0.837, 0.841, 0.832, 0.848 (mean
   // 0.819, worst pair 0.369, thalamus R). The floors guard today's figures.
   ffseg_tools::NiftiImage t1, aal;
