@@ -162,7 +162,7 @@ Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object
     lut.type = vol.type();
     lut.slope = vol.slope();
     lut.intercept = vol.intercept();
-    const ModelStatus ms_st = o.model.fit(o.roi, o.center, o.radius, ms, lut, msg, msg_len);
+    const ModelStatus ms_st = o.model.fit(o.roi, o.center, o.radius, ms, lut, msg, msg_len, &vol);
     if (ms_st == ModelStatus::no_samples) return Err::sphere_outside;
     if (ms_st == ModelStatus::not_finite) return Err::numeric;
     if (ms_st != ModelStatus::ok) return Err::invalid_argument;

@@ -48,7 +48,8 @@ void IntensityModel::carve(Arena& a, uint32_t max_samples, const CpuDispatch& cp
 }
 
 ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], double r, const IntensityModelSettings& s,
-                                const LutSpec& lut, char* msg, size_t msg_len) {
+                                const LutSpec& lut, char* msg, size_t msg_len, const VolumeView* raw) {
+  auto finite_raw = [&](int64_t i, int64_t j, int64_t k) { return raw == nullptr || std::isfinite(raw->at(i, j, k)); };
   reset();
   if (samples_ == nullptr || cap_ == 0) {
     say(msg, msg_len, "intensity model: sample memory was not carved");
@@ -96,9 +97,9 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   uint64_t count = 0;
   for (int64_t k = lo[2]; k < hi[2]; ++k)
     for (int64_t j = lo[1]; j < hi[1]; ++j)
-      for (int64_t i = lo[0]; i < hi[0]; ++i) count += inside(i, j, k);
+      for (int64_t i = lo[0]; i < hi[0]; ++i) count += inside(i, j, k) && finite_raw(i, j, k);
   if (count == 0) {
-    say(msg, msg_len, "intensity model: no voxel centre inside the sphere");
+    say(msg, msg_len, "intensity model: no voxel centre inside the sphere (or none with a finite value)");
     return ModelStatus::no_samples;
   }
   // Uniform stride over the inside voxels in scan order: voxel m is taken when
@@ -109,7 +110,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   for (int64_t k = lo[2]; k < hi[2]; ++k)
     for (int64_t j = lo[1]; j < hi[1]; ++j)
       for (int64_t i = lo[0]; i < hi[0]; ++i) {
-        if (!inside(i, j, k)) continue;
+        if (!inside(i, j, k) || !finite_raw(i, j, k)) continue;
         const bool take = q >= 1.0 || std::floor(double(m + 1) * q) > std::floor(double(m) * q);
         ++m;
         if (take && n < cap_) samples_[n++] = roi.at(i, j, k);
@@ -147,7 +148,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
         ++ms;
         if (!take || ns >= scap) continue;
         const float v = roi.at(i, j, k);
-        if (!std::isfinite(v)) continue;
+        if (!std::isfinite(v) || !finite_raw(i, j, k)) continue;
         samples_[ns++] = v;
         smean += v;
       }

@@ -119,8 +119,13 @@ class IntensityModel {
 
   // Fits the model to the smoothed crop's voxels inside the ball (c, r in mm);
   // the crop should contain the ball (voxels outside it are not seen).
+  // raw (the volume the crop was smoothed from; may be nullptr): voxels whose
+  // stored value is not finite are left out of the sphere's and the scene's
+  // samples. The crop reads them as its 1st percentile (smoothing.h), which
+  // is no tissue's value: a NaN patch inside the sphere would otherwise give
+  // the object a background class.
   ModelStatus fit(const SmoothedRoi& roi, const double c[3], double r, const IntensityModelSettings& s,
-                  const LutSpec& lut, char* msg = nullptr, size_t msg_len = 0);
+                  const LutSpec& lut, char* msg = nullptr, size_t msg_len = 0, const VolumeView* raw = nullptr);
   // Fits to given samples with a given sigma_floor (also sets the binning
   // defaults). x may be this model's own sample buffer.
   ModelStatus fit_samples(const float* x, uint32_t n, double sigma_floor, const IntensityModelSettings& s,

@@ -215,3 +215,66 @@ TEST_CASE("chapter 5 on a CT phantom with fluid cavities and bone: seeds of 3, 5
       CHECK(2.0 * double(both) / double(na + nb) >= 0.9);
     }
 }
+
+TEST_CASE("chapter 5 with non-finite voxels: they never enter the model and read as outside the object") {
+  // f32 volume, a ball of 100 in 0, noise sigma 4; a slab of NaN and +inf
+  // voxels touching the ball's side, and a cluster of NaN voxels inside the
+  // seed sphere itself.
+  const int64_t dims[3] = {64, 64, 48};
+  const double A[16] = {1, 0, 0, -32, 0, 1, 0, -32, 0, 0, 1, -24, 0, 0, 0, 1};
+  const size_t n = size_t(dims[0] * dims[1] * dims[2]);
+  std::vector<float> vox(n);
+  std::vector<uint8_t> truth(n), bad(n);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 4.0);
+  for (int64_t k = 0; k < dims[2]; ++k)
+    for (int64_t j = 0; j < dims[1]; ++j)
+      for (int64_t i = 0; i < dims[0]; ++i) {
+        const double x = i - 32.0, y = j - 32.0, z = k - 24.0;
+        const size_t q = size_t(i + dims[0] * (j + dims[1] * k));
+        const bool in = x * x + y * y + z * z < 16.0 * 16.0;
+        const bool slab = x > 12 && x < 20 && std::fabs(y) < 6 && std::fabs(z) < 6;
+        const bool cluster = std::fabs(x + 1) <= 1 && std::fabs(y) <= 1 && std::fabs(z) <= 1;
+        vox[q] = float((in ? 100.0 : 0.0) + noise(rng));
+        if (slab) vox[q] = (i + j) % 2 ? NAN : INFINITY;
+        if (cluster) vox[q] = NAN;
+        bad[q] = slab || cluster;
+        truth[q] = in && !bad[q];
+      }
+  ffseg_test::EngineBox eb(1, 21);
+  REQUIRE(eb.e != nullptr);
+  ffseg_params p;
+  ffseg_params_init_default(&p);
+  p.target_mode = FFSEG_TARGET_INTENSITY;
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  ffseg_volume v = ffseg_test::make_volume(vox.data(), FFSEG_F32, dims, A);
+  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
+  const double c[3] = {0, 0, 0};  // the seed holds the NaN cluster
+  REQUIRE(ffseg_init_sphere(eb.e, 0, c, 4.0) == FFSEG_OK);
+  int steps = 0;
+  for (; steps < 150; ++steps) {
+    const ffseg_status st = ffseg_step(eb.e, nullptr);
+    INFO(ffseg_last_error(eb.e));
+    REQUIRE(st >= 0);
+    if (st == FFSEG_CONVERGED) break;
+  }
+  std::vector<uint8_t> mask(n);
+  REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
+  size_t both = 0, a = 0, b = 0, slab_in = 0, outside_ball = 0;
+  for (size_t q = 0; q < n; ++q) {
+    both += mask[q] && truth[q];
+    a += mask[q];
+    b += truth[q];
+    const int64_t i = int64_t(q % size_t(dims[0]));
+    slab_in += mask[q] && bad[q] && i - 32 > 16;  // the slab beyond the ball's surface
+    outside_ball += mask[q] && !truth[q] && !bad[q];
+  }
+  const double dice = 2.0 * double(both) / double(a + b);
+  std::printf("non-finite voxels: Dice %.4f, %zu slab voxels beyond the ball inside, %zu voxels outside the ball, %d steps\n", dice,
+              slab_in, outside_ball, steps);
+  // With the cluster's voxels in the model (read as the crop's 1st
+  // percentile, a background value) the object came out at Dice 0.949.
+  CHECK(dice >= 0.97);
+  CHECK(outside_ball == 0);
+  CHECK(slab_in == 0);
+}
