@@ -913,3 +913,32 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     CHECK(rep.get("config")->get("asked_mesh_resolution") == nullptr);
   }
 }
+
+TEST_CASE("cli: non-finite voxels are counted, warned about (also with --quiet) and reported") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {1});
+  NiftiImage img = b.image;  // the same ball as f32, with 7 NaN and 3 inf voxels away from it
+  img.voxel_type = kNiftiVoxF32;
+  img.datatype = kNiftiDtFloat32;
+  img.bytes_per_voxel = 4;
+  img.data.assign(b.image.data.size() * 4, 0);
+  for (size_t q = 0; q < b.image.data.size(); ++q) {
+    float v = float(b.image.data[q]);
+    if (q < 7) v = NAN;
+    if (q >= 7 && q < 10) v = INFINITY;
+    std::memcpy(&img.data[4 * q], &v, 4);
+  }
+  write(s / "f.nii.gz", img);
+  const Run r = ffseg(s, "segment " + (s / "f.nii.gz") + " --sphere 4,27,12,4 --max-steps 30 --quiet --out " + (s / "o"));
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.err.find("warning: 10 voxels") != std::string::npos);
+  const Json rep = parse_json(slurp(s / "o/report.json"));
+  CHECK(rep.get("non_finite_voxels")->as_number() == 10);
+  // A clean volume reports 0 and says nothing.
+  write(s / "u8.nii.gz", b.image);
+  const Run c = ffseg(s, "segment " + (s / "u8.nii.gz") + " --sphere 4,27,12,4 --max-steps 30 --quiet --out " + (s / "p"));
+  REQUIRE(c.code == 0);
+  CHECK(c.err.find("warning") == std::string::npos);
+  CHECK(parse_json(slurp(s / "p/report.json")).get("non_finite_voxels")->as_number() == 0);
+}

@@ -291,6 +291,15 @@ int cmd_segment(int argc, char** argv) {
     if (!truth_path.empty()) known[truth_path] = &truth;
     resolve_label_spheres(&spheres, img, volume_path, known, quiet);
   }
+  // Non-finite grey levels (float volumes): the engine leaves them out of the
+  // intensity model and its crop reads them as a background value, so they
+  // count as outside every object; say how many there are.
+  size_t nonfinite_voxels = 0;
+  if (img.voxel_type == FFSEG_F32 || img.voxel_type == FFSEG_F64)
+    for_each_stored(img, [&](size_t, double v) { nonfinite_voxels += !std::isfinite(img.scl_slope * v + img.scl_inter); });
+  if (nonfinite_voxels > 0)  // a warning, also with --quiet
+    std::fprintf(stderr, "ffseg: warning: %zu voxels of %s are not finite (NaN or infinite); they are left out of the "
+                 "intensity model and read as outside every object\n", nonfinite_voxels, volume_path.c_str());
   const double t_read = seconds_since(t_start);
   check_interrupted();
 
@@ -554,6 +563,7 @@ int cmd_segment(int argc, char** argv) {
   rep.set("input", std::move(in));
   if (!truth_path.empty()) rep.set("truth", truth_path);
   rep.set("target", target_name(params.target_mode));
+  rep.set("non_finite_voxels", uint64_t(nonfinite_voxels));
   rep.set("steps", steps);
   rep.set("max_steps", max_steps);
   rep.set("converged", converged);
