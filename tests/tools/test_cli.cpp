@@ -942,3 +942,35 @@ TEST_CASE("cli: non-finite voxels are counted, warned about (also with --quiet) 
   CHECK(c.err.find("warning") == std::string::npos);
   CHECK(parse_json(slurp(s / "p/report.json")).get("non_finite_voxels")->as_number() == 0);
 }
+
+TEST_CASE("cli: a run that finds no object exits 5 with a message and writes nothing") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {1});
+  write(s / "ball.nii.gz", b.image);
+  struct Case {
+    const char* what;
+    std::string sphere;
+    const char* says;
+  };
+  const Case cases[] = {
+      // Around the whole grid: the mesh never meets a boundary, every voxel inside.
+      {"a sphere around the scan", "4,27,12,500", "object 1 (object1)"},
+      // A volume without the object (all zero): no vertex finds a boundary.
+      {"an empty volume", "4,27,12,4", "no vertex found a boundary"},
+  };
+  const Balls empty = make_balls({}, {});
+  write(s / "empty.nii.gz", empty.image);
+  for (const Case& c : cases) {
+    INFO(c.what);
+    const std::string out = s / (std::string("o_") + std::to_string(&c - cases));
+    const std::string vol = &c == cases ? s / "ball.nii.gz" : s / "empty.nii.gz";
+    const Run r = ffseg(s, "segment " + vol + " --target binary --sphere " + c.sphere +
+                               " --mesh-resolution 6 --max-steps 20 --quiet --out " + out);
+    INFO("stderr: " << r.err);
+    CHECK(r.code == 5);
+    CHECK(r.err.find(c.says) != std::string::npos);
+    CHECK_FALSE(fs::exists(out));
+  }
+  // The ball itself from inside: found, exit 0.
+  CHECK(ffseg(s, "segment " + (s / "ball.nii.gz") + " --target binary --sphere 4,27,12,4 --mesh-resolution 6 --max-steps 20 --quiet --out " + (s / "ok")).code == 0);
+}

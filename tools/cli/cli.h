@@ -21,6 +21,7 @@ constexpr int kExitFailure = 1;      // an output could not be written
 constexpr int kExitUsage = 2;        // bad command line
 constexpr int kExitInput = 3;        // unreadable or malformed input file
 constexpr int kExitEngine = 4;       // the engine reported an error
+constexpr int kExitNoResult = 5;     // the run ended, but no object was found (segment: see cmd_segment.cpp)
 constexpr int kExitInterrupted = 130;
 
 // Thrown anywhere in a command; main prints "ffseg: error: <message>" and

@@ -132,6 +132,9 @@ std::string world_extent(const ffseg_tools::NiftiImage& img) {
   return s + " mm";
 }
 
+// An object holding more than this share of the grid's voxels is not an organ.
+constexpr double kMostOfTheGrid = 0.8;
+
 const char* kStageNames[FFSEG_STAGE_COUNT] = {"search",   "flips",    "diffusion", "intersection",
                                               "assembly", "factor",   "solve",     "features",
                                               "guard",    "regions"};
@@ -323,6 +326,7 @@ int cmd_segment(int argc, char** argv) {
   bool converged = false;
   int64_t steps = 0;
   std::vector<uint32_t> border_vertices;  // at the last step each object moved
+  std::vector<uint8_t> found_boundary;    // some vertex of the object found a boundary at some step
   auto t_step0 = std::chrono::steady_clock::now();
   for (int pass = 0;; ++pass) {
     // ---- engine -------------------------------------------------------------------
@@ -394,6 +398,8 @@ int cmd_segment(int argc, char** argv) {
     converged = false;
     steps = 0;
     border_vertices.assign(nobj, 0);
+    found_boundary.assign(nobj, 0);
+    for (uint32_t k = FFSEG_REPORT_OBJECTS; k < nobj; ++k) found_boundary[k] = 1;  // beyond the report: not known
     t_step0 = std::chrono::steady_clock::now();
     {
       Progress progress(!quiet, max_steps, nobj);
@@ -409,9 +415,11 @@ int cmd_segment(int argc, char** argv) {
         if (st < 0) engine_fail(ws.e, st, "step " + std::to_string(s + 1));
         steps = s + 1;
         for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) stage_us[g] += info.stage_us[g];
-        for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k)
+        for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k) {
           if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0)
             border_vertices[k] = info.border_vertices[k];
+          if (info.vertices_with_target[k] > 0) found_boundary[k] = 1;
+        }
         converged = st == FFSEG_CONVERGED;
         progress.step(info, seconds_since(t_step0), converged || steps == max_steps);
         if (converged) break;
@@ -449,6 +457,19 @@ int cmd_segment(int argc, char** argv) {
   for (uint32_t k = 0; k < nobj; ++k) {
     res[k].border_vertices = border_vertices[k];
     shared_voxels += res[k].shared_voxels;
+  }
+  // A run that found nothing is not a segmentation: no vertex of an object
+  // ever met a boundary (its mesh stayed the sphere), or the object fills
+  // most of the grid (a sphere around the whole scan: every voxel labelled).
+  // Exit 5, nothing written.
+  for (uint32_t k = 0; k < nobj; ++k) {
+    const std::string who = "object " + std::to_string(k + 1) + " (" + names[k] + ")";
+    if (!found_boundary[k])
+      fail(kExitNoResult, who + ": no vertex found a boundary along its normal in " + std::to_string(steps) +
+                              " steps; the sphere is not inside or near an object of the target (check --sphere and --target)");
+    if (double(res[k].voxels) > kMostOfTheGrid * double(nvox))
+      fail(kExitNoResult, who + " fills " + std::to_string(int(100.0 * double(res[k].voxels) / double(nvox) + 0.5)) +
+                              "% of the volume grid: no organ boundary held it (is the sphere larger than the organ?)");
   }
   ffseg_tools::NiftiImage regions_map;
   if (!regions_path.empty()) regions_map = region_label_map(ws.e, img, labels);
