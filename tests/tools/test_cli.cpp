@@ -974,3 +974,41 @@ TEST_CASE("cli: a run that finds no object exits 5 with a message and writes not
   // The ball itself from inside: found, exit 0.
   CHECK(ffseg(s, "segment " + (s / "ball.nii.gz") + " --target binary --sphere 4,27,12,4 --mesh-resolution 6 --max-steps 20 --quiet --out " + (s / "ok")).code == 0);
 }
+
+TEST_CASE("cli: the overlay's grey window follows the objects, --window LO,HI chooses it") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {1});
+  NiftiImage img = b.image;  // CT-like f32: air -1000, a bone slab of 1000, the ball 40..60 HU
+  img.voxel_type = kNiftiVoxF32;
+  img.datatype = kNiftiDtFloat32;
+  img.bytes_per_voxel = 4;
+  img.data.assign(b.image.data.size() * 4, 0);
+  for (size_t q = 0; q < b.image.data.size(); ++q) {
+    const size_t i = q % size_t(img.dims[0]);
+    float v = b.image.data[q] ? float(40 + (q * 7919) % 21) : (i < 4 ? 1000.0f : -1000.0f);
+    std::memcpy(&img.data[4 * q], &v, 4);
+  }
+  write(s / "ct.nii.gz", img);
+  const Run r = ffseg(s, "segment " + (s / "ct.nii.gz") + " --sphere 4,27,12,4 --max-steps 30 --quiet --out " + (s / "a"));
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  const Json rep = parse_json(slurp(s / "a/report.json"));
+  const Json* w = rep.get("outputs")->get("overlay_window");
+  REQUIRE(w != nullptr);
+  const double lo = (*w)[0].as_number(), hi = (*w)[1].as_number();
+  CHECK(lo < 40);
+  CHECK(hi > 60);
+  CHECK(hi - lo < 200);  // the scan's own p1..p99 spans 2000 HU
+  CHECK(rep.get("outputs")->get("overlay_window_source")->as_string() == "objects");
+  const Run c = ffseg(s, "segment " + (s / "ct.nii.gz") + " --sphere 4,27,12,4 --max-steps 30 --quiet --window -160,240 --out " + (s / "b"));
+  REQUIRE(c.code == 0);
+  const Json rc = parse_json(slurp(s / "b/report.json"));
+  CHECK((*rc.get("outputs")->get("overlay_window"))[0].as_number() == -160);
+  CHECK((*rc.get("outputs")->get("overlay_window"))[1].as_number() == 240);
+  for (const char* bad : {"10", "5,5", "a,3"}) {
+    CAPTURE(bad);
+    const Run e = ffseg(s, "segment " + (s / "ct.nii.gz") + " --sphere 4,27,12,4 --quiet --window " + bad + " --out " + (s / "c"));
+    CHECK(e.code == 2);
+    CHECK(e.err.find("--window") != std::string::npos);
+  }
+}

@@ -150,6 +150,8 @@ int cmd_segment(int argc, char** argv) {
   ffseg_params_init_default(&params);
   params.target_mode = kDefaultTarget;
   uint32_t mesh_resolution = 0;  // automatic (mesh_resolution.h)
+  double window_opt[2] = {0, 1};  // --window LO,HI (overlay grey levels)
+  bool have_window = false;
   int64_t max_steps = kDefaultMaxSteps, max_roi = -1;
   ffseg_tools::MeshFormat mesh_format = ffseg_tools::MeshFormat::Ply;
   bool force = false, quiet = false, have_truth_labels = false, have_labels_format = false;
@@ -173,6 +175,14 @@ int cmd_segment(int argc, char** argv) {
       force = true;
     } else if (tok == "-q" || tok == "--quiet") {
       quiet = true;
+    } else if (tok == "--window") {
+      const std::string v = args.value(tok);
+      const size_t comma = v.find(',');
+      if (comma == std::string::npos) fail(kExitUsage, "--window: expected LO,HI, got '" + v + "'");
+      window_opt[0] = parse_double(v.substr(0, comma), tok);
+      window_opt[1] = parse_double(v.substr(comma + 1), tok);
+      if (!(window_opt[1] > window_opt[0])) fail(kExitUsage, "--window: HI must be above LO, got '" + v + "'");
+      have_window = true;
     } else if (tok == "--mesh-resolution") {
       const std::string v = args.value(tok);
       mesh_resolution = v == "auto" ? 0 : uint32_t(parse_int(v, tok, 2, 1024));
@@ -507,7 +517,10 @@ int cmd_segment(int argc, char** argv) {
   if (!ffseg_tools::image_write_file(tmp.path + "/" + labels_file, labels_format, lab, &err)) fail(kExitFailure, err);
   check_interrupted();
 
-  if (!write_overlay(tmp.path + "/overlay.png", img, res, names, truth_masks, &err)) fail(kExitFailure, err);
+  double window[2] = {window_opt[0], window_opt[1]};
+  if (!have_window) object_window(img, res, &window[0], &window[1]);
+  if (!write_overlay(tmp.path + "/overlay.png", img, res, names, truth_masks, window[0], window[1], &err))
+    fail(kExitFailure, err);
   check_interrupted();
 
   // Report.
@@ -625,6 +638,8 @@ int cmd_segment(int argc, char** argv) {
   outs.set("mesh_format", ffseg_tools::mesh_format_extension(mesh_format));
   outs.set("labels", labels_file);
   outs.set("overlay", "overlay.png");
+  outs.set("overlay_window", Json::array_of(window, 2));
+  outs.set("overlay_window_source", have_window ? "--window" : "objects");
   if (!regions_path.empty()) outs.set("regions", regions_path);
   rep.set("outputs", std::move(outs));
   if (!write_text_file(tmp.path + "/report.json", rep.dump(), &err)) fail(kExitFailure, err);

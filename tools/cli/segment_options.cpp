@@ -231,6 +231,8 @@ const char* const kSegmentUsageText =
     "algorithm:\n"
     "  --target MODE           binary (non-zero voxels are the object) or intensity\n"
     "                          (grey-level model); default: @TARGET@\n"
+    "  --window LO,HI          overlay.png's grey window (default: the objects' p1..p99, widened by\n"
+    "                          its width on each side, within the scan's p1..p99)\n"
     "  --mesh-resolution N     each mesh has 6 N^2 vertices; 2..1024, or auto (default): a first run\n"
     "                          at N = 12 measures each surface, and a run again at the N that\n"
     "                          gives quads of about 1.5 voxels a side when that is above 18 (cap 49)\n"

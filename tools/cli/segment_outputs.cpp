@@ -105,9 +105,33 @@ ffseg_tools::NiftiImage region_label_map(const ffseg_engine* e, const ffseg_tool
   return lab;
 }
 
+void object_window(const ffseg_tools::NiftiImage& img, const std::vector<ObjectResult>& res, double* lo, double* hi) {
+  const size_t n = size_t(img.voxel_count());
+  auto value = [&img](size_t i) { return voxel_value(img, i); };
+  double glo, ghi;
+  ffseg_tools::percentile_window(value, n, 0.01, 0.99, &glo, &ghi);
+  *lo = glo;
+  *hi = ghi;
+  std::vector<size_t> inside;
+  for (size_t i = 0; i < n; ++i)
+    for (const ObjectResult& r : res)
+      if (r.mask[i]) {
+        inside.push_back(i);
+        break;
+      }
+  if (inside.empty()) return;
+  double olo, ohi;
+  ffseg_tools::percentile_window([&](size_t k) { return voxel_value(img, inside[k]); }, inside.size(), 0.01, 0.99,
+                                 &olo, &ohi);
+  const double w = ohi - olo;
+  *lo = std::max(glo, olo - w);
+  *hi = std::min(ghi, ohi + w);
+  if (!(*hi > *lo)) *lo = glo, *hi = ghi;
+}
+
 bool write_overlay(const std::string& path, const ffseg_tools::NiftiImage& img, const std::vector<ObjectResult>& res,
                    const std::vector<std::string>& names, const std::vector<std::vector<uint8_t>>& truth_masks,
-                   std::string* err) {
+                   double lo, double hi, std::string* err) {
   ffseg_tools::OverlayVolume ov;
   ov.value = [&img](size_t i) { return voxel_value(img, i); };
   for (int a = 0; a < 3; ++a) {
@@ -115,7 +139,8 @@ bool write_overlay(const std::string& path, const ffseg_tools::NiftiImage& img, 
     ov.spacing[a] = img.spacing[a];
   }
   std::memcpy(ov.index_to_world, img.index_to_world, sizeof ov.index_to_world);
-  ffseg_tools::percentile_window(ov.value, size_t(img.voxel_count()), 0.01, 0.99, &ov.window_lo, &ov.window_hi);
+  ov.window_lo = lo;
+  ov.window_hi = hi;
   std::vector<ffseg_tools::OverlayObject> oo(res.size());
   for (size_t k = 0; k < res.size(); ++k) {
     oo[k].name = names[k];

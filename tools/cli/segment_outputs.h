@@ -49,11 +49,19 @@ ffseg_tools::NiftiImage object_label_map(const ffseg_tools::NiftiImage& img, con
 ffseg_tools::NiftiImage region_label_map(const ffseg_engine* e, const ffseg_tools::NiftiImage& img,
                                          const std::vector<int64_t>& labels);
 
+// The grey window of overlay.png when --window is not given: it follows the
+// objects, not the whole scan (on CT the whole scan's p1..p99 spans air to
+// bone and leaves soft tissue one grey). [lo, hi] = the p1..p99 of the
+// voxels inside the objects, widened by that width on each side so the
+// neighbouring tissue stays visible, and never wider than the scan's p1..p99;
+// no object voxel: the scan's p1..p99.
+void object_window(const ffseg_tools::NiftiImage& img, const std::vector<ObjectResult>& res, double* lo, double* hi);
+
 // overlay.png: one row per object, each object in its own colour; truth_masks
-// (empty, or one per object) as the reference contours.
+// (empty, or one per object) as the reference contours; grey window [lo, hi].
 bool write_overlay(const std::string& path, const ffseg_tools::NiftiImage& img, const std::vector<ObjectResult>& res,
                    const std::vector<std::string>& names, const std::vector<std::vector<uint8_t>>& truth_masks,
-                   std::string* err);
+                   double lo, double hi, std::string* err);
 
 }  // namespace ffseg_cli
 
