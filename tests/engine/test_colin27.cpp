@@ -17,6 +17,7 @@
 #include "nifti.h"
 #include "support/colin27_run.h"
 #include "support/mesh_check.h"
+#include "support/phantoms.h"
 #include "test_util.h"
 
 using namespace ffseg_test;
@@ -273,13 +274,7 @@ TEST_CASE("chapter 5 on Colin27: the result depends little on the seed (0.6x, 1x
     double mean = 0;
     for (int a = 0; a < 6; ++a)
       for (int b = a + 1; b < 6; ++b) {
-        size_t both = 0, na = 0, nb = 0;
-        for (size_t q = 0; q < masks[a].size(); ++q) {
-          both += masks[a][q] && masks[b][q];
-          na += masks[a][q];
-          nb += masks[b][q];
-        }
-        const double d = 2.0 * double(both) / double(na + nb);
+        const double d = dice(masks[a], masks[b]);
         mean += d / 15;
         worst = std::min(worst, d);
       }

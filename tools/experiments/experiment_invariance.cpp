@@ -16,6 +16,7 @@
 
 #include "metrics.h"
 #include "support/colin27_run.h"
+#include "support/phantoms.h"
 #include "test_util.h"
 
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
@@ -160,13 +161,7 @@ TEST_CASE("invariance experiment") {
         ref = back;
         continue;
       }
-      size_t both = 0, a = 0, b = 0;
-      for (size_t q = 0; q < N; ++q) {
-        both += ref[q] && back[q];
-        a += ref[q];
-        b += back[q];
-      }
-      std::printf(" %.4f |", a + b ? 2.0 * double(both) / double(a + b) : 1.0);
+      std::printf(" %.4f |", dice(ref, back));
     }
     std::printf("\n");
   }

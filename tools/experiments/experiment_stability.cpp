@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "support/colin27_run.h"
+#include "support/phantoms.h"
 
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
@@ -50,13 +51,7 @@ TEST_CASE("stability experiment") {
     int pairs = 0;
     for (int a = 0; a < 6; ++a)
       for (int b = a + 1; b < 6; ++b) {
-        size_t both = 0, na = 0, nb = 0;
-        for (size_t q = 0; q < masks[a].size(); ++q) {
-          both += masks[a][q] && masks[b][q];
-          na += masks[a][q];
-          nb += masks[b][q];
-        }
-        const double d = na + nb ? 2.0 * double(both) / double(na + nb) : 1.0;
+        const double d = dice(masks[a], masks[b]);
         mn = d < mn ? d : mn;
         mean += d;
         ++pairs;
