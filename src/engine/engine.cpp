@@ -45,7 +45,10 @@ void Engine::layout(Arena& a) {
   if (real) mesh_.build();
   scratch_.carve(a, mesh_);
   const bool real2 = !a.measuring() && a.ok();
-  if (real2) scratch_.pattern.build(mesh_.nbr);
+  if (real2) {
+    scratch_.pattern.build(mesh_.nbr);
+    scratch_.triangles.build_topology(mesh_);
+  }
   scratch_.cpu = cpu_;
   if (!scratch_.solver.init(a, real2 ? scratch_.pattern.graph() : CsrGraph{mesh_.nv, nullptr, nullptr}, cpu_,
                             solver_capacity(mesh_.n, mesh_.nv)) &&

@@ -62,6 +62,11 @@ struct TriangleScratch {
   // local windows free of crossings (patch_certificate.h).
   PatchCertificate cert;
   void carve(Arena& a, const CubeSphere& m);
+  // What depends on the mesh's topology only (the certificate's clusters,
+  // windows and their boundary loops), once the mesh is built: an engine does
+  // it at creation so that no step pays for it; a scratch used without it
+  // builds it at its first yes/no query.
+  void build_topology(const CubeSphere& m) { cert.build(m); }
 
   bool certificate_enabled() const { return use_certificate_; }
   void count_certified() { ++certified_calls_; }
