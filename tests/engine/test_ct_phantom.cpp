@@ -156,43 +156,56 @@ CavityPhantom make_cavity_phantom() {
 
 }  // namespace
 
+namespace {
+
+// A grey-level run of volume v from the sphere (c, r) at mesh resolution n
+// until convergence (at most 150 steps), every step's mesh checked by watch
+// when given; the final mask, and the steps taken in *steps.
+std::vector<uint8_t> grey_run(const ffseg_volume& v, uint32_t n, const double c[3], double r,
+                              ffseg_test::MeshWatch* watch, int* steps) {
+  ffseg_test::EngineBox eb(1, n);
+  REQUIRE(eb.e != nullptr);
+  ffseg_params p;
+  ffseg_params_init_default(&p);
+  p.target_mode = FFSEG_TARGET_INTENSITY;
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
+  REQUIRE(ffseg_init_sphere(eb.e, 0, c, r) == FFSEG_OK);
+  *steps = 0;
+  while (*steps < 150) {
+    const ffseg_status st = ffseg_step(eb.e, nullptr);
+    INFO(ffseg_last_error(eb.e));
+    REQUIRE(st >= 0);
+    ++*steps;
+    if (watch) REQUIRE(watch->look(eb.e, 0));
+    if (st == FFSEG_CONVERGED) break;
+  }
+  const size_t voxels = size_t(v.dims[0] * v.dims[1] * v.dims[2]);
+  std::vector<uint8_t> mask(voxels);
+  REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
+  return mask;
+}
+
+}  // namespace
+
 TEST_CASE("chapter 5 on a CT phantom with fluid cavities and bone: seeds of 3, 5 and 10 mm all reach the organ") {
   const CavityPhantom ct = make_cavity_phantom();
   std::vector<std::vector<uint8_t>> masks;
   for (const double r : {3.0, 5.0, 10.0}) {
     CAPTURE(r);
-    ffseg_test::EngineBox eb(1, 21);
-    REQUIRE(eb.e != nullptr);
-    ffseg_params p;
-    ffseg_params_init_default(&p);
-    p.target_mode = FFSEG_TARGET_INTENSITY;
-    REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
     ffseg_volume v = ffseg_test::make_volume(ct.stored.data(), FFSEG_I16, ct.dims, ct.A);
     v.rescale_intercept = -1024;
-    REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
     const double c[3] = {-8.0, -4.0, -3.0};  // well inside the organ, off its centre
-    REQUIRE(ffseg_init_sphere(eb.e, 0, c, r) == FFSEG_OK);
     ffseg_test::MeshWatch watch;
     int steps = 0;
-    for (; steps < 150; ++steps) {
-      const ffseg_status st = ffseg_step(eb.e, nullptr);
-      INFO(ffseg_last_error(eb.e));
-      REQUIRE(st >= 0);
-      REQUIRE(watch.look(eb.e, 0));
-      if (st == FFSEG_CONVERGED) { ++steps; break; }
-    }
-    std::vector<uint8_t> mask(ct.stored.size());
-    REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
-    size_t both = 0, a = 0, b = 0, in_fluid = 0, fluid = 0, in_bone = 0;
+    const std::vector<uint8_t> mask = grey_run(v, 21, c, r, &watch, &steps);
+    size_t in_fluid = 0, fluid = 0, in_bone = 0;
     for (size_t q = 0; q < mask.size(); ++q) {
-      both += mask[q] && ct.organ[q];
-      a += mask[q];
-      b += ct.organ[q];
       in_fluid += mask[q] && ct.fluid[q];
       fluid += ct.fluid[q];
       in_bone += mask[q] && ct.bone[q];
     }
-    const double dice = 2.0 * double(both) / double(a + b);
+    const double dice = ffseg_test::dice(mask, ct.organ);
     std::printf("cavity phantom, seed %.0f mm: Dice %.4f, %d steps, %.1f%% of the fluid and %zu bone voxels taken\n", r,
                 dice, steps, 100.0 * double(in_fluid) / double(fluid), in_bone);
     CHECK(dice >= 0.90);
@@ -236,35 +249,17 @@ TEST_CASE("chapter 5 with non-finite voxels: they never enter the model and read
         bad[q] = slab || cluster;
         truth[q] = in && !bad[q];
       }
-  ffseg_test::EngineBox eb(1, 21);
-  REQUIRE(eb.e != nullptr);
-  ffseg_params p;
-  ffseg_params_init_default(&p);
-  p.target_mode = FFSEG_TARGET_INTENSITY;
-  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
-  ffseg_volume v = ffseg_test::make_volume(vox.data(), FFSEG_F32, dims, A);
-  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
+  const ffseg_volume v = ffseg_test::make_volume(vox.data(), FFSEG_F32, dims, A);
   const double c[3] = {0, 0, 0};  // the seed holds the NaN cluster
-  REQUIRE(ffseg_init_sphere(eb.e, 0, c, 4.0) == FFSEG_OK);
   int steps = 0;
-  for (; steps < 150; ++steps) {
-    const ffseg_status st = ffseg_step(eb.e, nullptr);
-    INFO(ffseg_last_error(eb.e));
-    REQUIRE(st >= 0);
-    if (st == FFSEG_CONVERGED) break;
-  }
-  std::vector<uint8_t> mask(n);
-  REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
-  size_t both = 0, a = 0, b = 0, slab_in = 0, outside_ball = 0;
+  const std::vector<uint8_t> mask = grey_run(v, 21, c, 4.0, nullptr, &steps);
+  size_t slab_in = 0, outside_ball = 0;
   for (size_t q = 0; q < n; ++q) {
-    both += mask[q] && truth[q];
-    a += mask[q];
-    b += truth[q];
     const int64_t i = int64_t(q % size_t(dims[0]));
     slab_in += mask[q] && bad[q] && i - 32 > 16;  // the slab beyond the ball's surface
     outside_ball += mask[q] && !truth[q] && !bad[q];
   }
-  const double dice = 2.0 * double(both) / double(a + b);
+  const double dice = ffseg_test::dice(mask, truth);
   std::printf("non-finite voxels: Dice %.4f, %zu slab voxels beyond the ball inside, %zu voxels outside the ball, %d steps\n", dice,
               slab_in, outside_ball, steps);
   // With the cluster's voxels in the model (read as the crop's 1st
