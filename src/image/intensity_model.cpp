@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "box_lattice.h"
 #include "smoothing.h"
 
 #include "fp_contract_off.h"  // after every other include
@@ -48,7 +49,7 @@ void IntensityModel::carve(Arena& a, uint32_t max_samples, const CpuDispatch& cp
 }
 
 ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], double r, const IntensityModelSettings& s,
-                                const LutSpec& lut, char* msg, size_t msg_len, const VolumeView* raw) {
+                                char* msg, size_t msg_len, const VolumeView* raw) {
   auto finite_raw = [&](int64_t i, int64_t j, int64_t k) { return raw == nullptr || std::isfinite(raw->at(i, j, k)); };
   reset();
   if (samples_ == nullptr || cap_ == 0) {
@@ -102,19 +103,24 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     say(msg, msg_len, "intensity model: no voxel centre inside the sphere (or none with a finite value)");
     return ModelStatus::no_samples;
   }
-  // Uniform stride over the inside voxels in scan order: voxel m is taken when
-  // floor((m + 1) q) > floor(m q), q = cap / count.
-  const double q = count <= cap_ ? 1.0 : double(cap_) / double(count);
+  // Every inside voxel when they fit, else those of the coarsest lattice
+  // (box_lattice.h) that fits: the same voxels of the anatomy however the
+  // volume is stored. Sorted, so that binning and EM see them in one order.
+  BoxLattice lat = BoxLattice::with_step(lo, hi, 1);
+  auto chosen_inside = [&](const BoxLattice& b) {
+    uint64_t c = 0;
+    b.for_each([&](int64_t i, int64_t j, int64_t k) { c += inside(i, j, k) && finite_raw(i, j, k); });
+    return c;
+  };
+  for (uint64_t c = count; c > cap_;) {
+    lat = BoxLattice::with_step(lo, hi, lat.step + 1);
+    c = chosen_inside(lat);
+  }
   uint32_t n = 0;
-  uint64_t m = 0;
-  for (int64_t k = lo[2]; k < hi[2]; ++k)
-    for (int64_t j = lo[1]; j < hi[1]; ++j)
-      for (int64_t i = lo[0]; i < hi[0]; ++i) {
-        if (!inside(i, j, k) || !finite_raw(i, j, k)) continue;
-        const bool take = q >= 1.0 || std::floor(double(m + 1) * q) > std::floor(double(m) * q);
-        ++m;
-        if (take && n < cap_) samples_[n++] = roi.at(i, j, k);
-      }
+  lat.for_each([&](int64_t i, int64_t j, int64_t k) {
+    if (n < cap_ && inside(i, j, k) && finite_raw(i, j, k)) samples_[n++] = roi.at(i, j, k);
+  });
+  std::sort(samples_, samples_ + n);
   const double range = roi.robust_high() - roi.robust_low();
   const double rho = s.sigma_floor_fraction;
   if (!(std::isfinite(rho) && rho >= 0)) {
@@ -126,32 +132,24 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     say(msg, msg_len, "intensity model: the region's noise or intensity range is not finite (grey levels beyond float range)");
     return ModelStatus::not_finite;
   }
-  const ModelStatus st = fit_samples(samples_, n, floor, s, lut, msg, msg_len);
+  const ModelStatus st = fit_samples(samples_, n, floor, s, msg, msg_len);
   if (st != ModelStatus::ok || !s.scene_competitors) return st;
 
   // The scene: the same mixture fit (Algorithm 2 + EM, same floor) over the
-  // crop's statistics box (SmoothingSettings::stats_lo), subsampled uniformly into the sample buffer (the
-  // sphere's samples are no longer needed).
+  // crop's statistics box (SmoothingSettings::stats_lo), a lattice of it
+  // when it holds more than kSceneSamples (box_lattice.h), sorted, in the
+  // sample buffer (the sphere's samples are no longer needed).
   const int64_t* blo = roi.stats_lo();
   const int64_t* bhi = roi.stats_hi();
-  const uint64_t total =
-      uint64_t(bhi[0] - blo[0]) * uint64_t(bhi[1] - blo[1]) * uint64_t(bhi[2] - blo[2]);
   const uint32_t scap = cap_ < kSceneSamples ? cap_ : kSceneSamples;
-  const double qs = total <= scap ? 1.0 : double(scap) / double(total);
   uint32_t ns = 0;
-  uint64_t ms = 0;
+  BoxLattice::fit(blo, bhi, scap).for_each([&](int64_t i, int64_t j, int64_t k) {
+    const float v = roi.at(i, j, k);
+    if (ns < scap && std::isfinite(v) && finite_raw(i, j, k)) samples_[ns++] = v;
+  });
+  std::sort(samples_, samples_ + ns);
   double smean = 0;
-  for (int64_t k = blo[2]; k < bhi[2]; ++k)
-    for (int64_t j = blo[1]; j < bhi[1]; ++j)
-      for (int64_t i = blo[0]; i < bhi[0]; ++i) {
-        const bool take = qs >= 1.0 || std::floor(double(ms + 1) * qs) > std::floor(double(ms) * qs);
-        ++ms;
-        if (!take || ns >= scap) continue;
-        const float v = roi.at(i, j, k);
-        if (!std::isfinite(v) || !finite_raw(i, j, k)) continue;
-        samples_[ns++] = v;
-        smean += v;
-      }
+  for (uint32_t j = 0; j < ns; ++j) smean += samples_[j];
   if (ns == 0) return st;
   smean /= ns;
   double sm2 = 0;
@@ -170,13 +168,12 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     if (own[c]) obj_weight_ += scene[c].weight;
     else scene_[sm_++] = scene[c];
   }
-  if (sm_ > 0) normalise_and_tabulate(lut);  // the table now includes the competition
+  if (sm_ > 0) normalise_and_tabulate();  // the table now includes the competition
   return st;
 }
 
 ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma_floor,
-                                        const IntensityModelSettings& s, const LutSpec& lut, char* msg,
-                                        size_t msg_len) {
+                                        const IntensityModelSettings& s, char* msg, size_t msg_len) {
   m_ = 0;
   lut_n_ = 0;
   if (n == 0 || x == nullptr) {
@@ -204,7 +201,7 @@ ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma
   m2 /= nf;
   m_ = fit_mixture(cpu_, x, n, mean, m2, sigma_floor, s, comp_, &bins_);
   sm_ = 0;
-  normalise_and_tabulate(lut);
+  normalise_and_tabulate();
   return ModelStatus::ok;
 }
 
@@ -286,7 +283,7 @@ double IntensityModel::posterior_against(double v, const IntensityModel* const* 
   return den > 0 ? own / den : 0.0;
 }
 
-void IntensityModel::normalise_and_tabulate(const LutSpec& lut) {
+void IntensityModel::normalise_and_tabulate() {
   // Peak of the mixture: a grid over mu +- 4 sigma and every mean, then a
   // golden-section refinement around the best grid point.
   double lo = INFINITY, hi = -INFINITY, best_v = comp_[0].mean, best = 0;
@@ -313,18 +310,6 @@ void IntensityModel::normalise_and_tabulate(const LutSpec& lut) {
   best = std::max(best, density(0.5 * (a + b)));
   peak_ = best > 0 ? best : 1;
 
-  lut_n_ = 0;
-  if (lut_ == nullptr || !(std::isfinite(lut.slope) && lut.slope != 0 && std::isfinite(lut.intercept))) return;
-  double raw0;
-  uint32_t count;
-  switch (lut.type) {
-    case VoxelType::U8: raw0 = 0, count = 256; break;
-    case VoxelType::I16: raw0 = -32768, count = 65536; break;
-    case VoxelType::U16: raw0 = 0, count = 65536; break;
-    default: return;  // i32, f32, f64: direct evaluation
-  }
-  lut_v0_ = lut.slope * raw0 + lut.intercept;
-  lut_inv_step_ = 1.0 / lut.slope;
   // Where every component's and competitor's exponent -d^2 / (2 var) is below
   // -746, each exp is 0 (e^-746 < 2^-1076, under half the least subnormal), so
   // g_direct is 0 there: only values within sqrt(1492 var) (plus a relative
@@ -337,10 +322,21 @@ void IntensityModel::normalise_and_tabulate(const LutSpec& lut) {
   };
   for (uint32_t i = 0; i < m_; ++i) widen(comp_[i]);
   for (uint32_t c = 0; c < sm_; ++c) widen(scene_[c]);
-  for (uint32_t i = 0; i < count; ++i) {
-    const double v = lut.slope * (raw0 + i) + lut.intercept;
-    lut_[i] = (v >= vlo && v <= vhi) || !(std::isfinite(vlo) && std::isfinite(vhi)) ? float(g_direct(v)) : 0.0f;
-  }
+  // The table: g_direct at steps of a kLutStepsPerSigma-th of the narrowest
+  // class's sd over that span, linear in between; it depends on the model
+  // only, so the same values give the same g whatever type stored them.
+  lut_n_ = 0;
+  double sd_min = INFINITY;
+  for (uint32_t i = 0; i < m_; ++i) sd_min = std::min(sd_min, std::sqrt(comp_[i].var));
+  for (uint32_t c = 0; c < sm_; ++c) sd_min = std::min(sd_min, std::sqrt(scene_[c].var));
+  const double span = vhi - vlo;
+  double step = sd_min / kLutStepsPerSigma;
+  if (lut_ == nullptr || !std::isfinite(span) || !(span > 0) || !(step > 0)) return;
+  if (span / step > double(kLutMax - 2)) step = span / double(kLutMax - 2);
+  const uint32_t count = uint32_t(std::ceil(span / step)) + 1;
+  lut_v0_ = vlo;
+  lut_inv_step_ = 1.0 / step;
+  for (uint32_t i = 0; i < count; ++i) lut_[i] = float(g_direct(vlo + step * double(i)));
   lut_n_ = count;
 }
 

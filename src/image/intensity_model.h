@@ -59,15 +59,19 @@
 // beyond 4 sigma of every existing one), N_m = max(8, 5% of the samples).
 //
 // Samples: the voxels of the smoothed crop whose centres lie in the sphere, at
-// most max_samples of them, subsampled deterministically (uniform stride in
-// scan order), held in the workspace. Binning visits them in a fixed
-// pseudo-random order (Weyl stride) so the first bins are not biased to one
-// side of the sphere.
+// most max_samples of them (beyond, the coarsest lattice of box_lattice.h that
+// fits: the same voxels of the anatomy when the volume is stored flipped or
+// with permuted axes), held in the workspace and sorted: binning and EM then
+// see the same values in the same order however the volume was stored.
+// Binning visits them in a fixed pseudo-random order (Weyl stride) so the
+// first bins are not biased to one end of the range.
 //
-// Evaluation: for integer voxel types (u8, i16, u16; any rescale) g is
-// tabulated at every representable value slope * raw + intercept (at most 65536
-// entries) and linearly interpolated in between (smoothed values are not
-// integers); exact at representable values. i32 and floats are evaluated directly.
+// Evaluation: g is tabulated from the model alone (kLutStepsPerSigma steps
+// per sd of its narrowest class, over the span where some class's density is
+// not 0, at most kLutMax entries) and linearly interpolated, whatever the
+// voxel type: a u8 volume and an f32 copy of it give the same g (issue 19;
+// the table once followed the type's representable values, and u8 read
+// another g than f32). Beyond the table, g_direct.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -90,12 +94,6 @@ struct IntensityModelSettings {
   bool scene_competitors = true;      // fit(): the crop's other classes compete (see the header note)
 };
 
-// Which values are representable (for the lookup table).
-struct LutSpec {
-  VoxelType type = VoxelType::F32;  // U8, I16, U16 get a table; others none
-  double slope = 1, intercept = 0;
-};
-
 // not_finite: the region's noise estimate or intensity range overflowed (grey
 // levels beyond float range: the smoothed crop is float).
 enum class ModelStatus : int { ok = 0, no_samples, not_carved, bad_settings, not_finite };
@@ -105,6 +103,7 @@ class IntensityModel {
   static constexpr uint32_t kMaxComponents = kMaxMixtureComponents;
   static constexpr uint32_t kMaxBins = kMaxBinningClusters;
   static constexpr uint32_t kLutMax = 65536;
+  static constexpr double kLutStepsPerSigma = 32;  // linear interpolation error below 2e-4 of the peak
   static constexpr uint32_t kDefaultSamples = 65536;  // a suggested cap (256 KB)
   static constexpr uint32_t kSceneSamples = 16384;    // cap on the crop voxels of the scene mixture
   // The scene fit bins its samples (compress_samples) when it has more than
@@ -125,11 +124,11 @@ class IntensityModel {
   // is no tissue's value: a NaN patch inside the sphere would otherwise give
   // the object a background class.
   ModelStatus fit(const SmoothedRoi& roi, const double c[3], double r, const IntensityModelSettings& s,
-                  const LutSpec& lut, char* msg = nullptr, size_t msg_len = 0, const VolumeView* raw = nullptr);
+                  char* msg = nullptr, size_t msg_len = 0, const VolumeView* raw = nullptr);
   // Fits to given samples with a given sigma_floor (also sets the binning
   // defaults). x may be this model's own sample buffer.
   ModelStatus fit_samples(const float* x, uint32_t n, double sigma_floor, const IntensityModelSettings& s,
-                          const LutSpec& lut, char* msg = nullptr, size_t msg_len = 0);
+                          char* msg = nullptr, size_t msg_len = 0);
 
   bool valid() const { return m_ > 0; }
   void reset() { m_ = 0; sm_ = 0; lut_n_ = 0; }
@@ -192,7 +191,7 @@ class IntensityModel {
                               double sigma_floor, const IntensityModelSettings& s, Gaussian1* comp,
                               uint32_t* bins_found, double* hist = nullptr);
 
-  void normalise_and_tabulate(const LutSpec& lut);
+  void normalise_and_tabulate();
 
   CpuDispatch cpu_;
   float* samples_ = nullptr;

@@ -9,6 +9,7 @@
 #include <limits>
 #include <cstdlib>
 
+#include "box_lattice.h"
 #include "cpu_x86.h"
 #include "smoothing_sweep.h"
 
@@ -19,16 +20,6 @@ namespace ffseg {
 namespace {
 
 using namespace smoothing_kernels;
-
-// Deterministic, well-spread subsample: the s-th of ns draws from [0, count)
-// (Weyl sequence with the golden ratio; no aliasing with the grid's rows).
-int64_t weyl_index(uint32_t s, int64_t count) {
-  const double g = 0.6180339887498949;
-  double f = (double(s) + 0.5) * g;
-  f -= std::floor(f);
-  int64_t m = int64_t(f * double(count));
-  return m >= count ? count - 1 : m;
-}
 
 float nth_of(float* v, int64_t n, int64_t k) {
   std::nth_element(v, v + k, v + n);
@@ -58,7 +49,7 @@ void SmoothedRoi::carve(Arena& a, int64_t max_voxels, const CpuDispatch& cpu) {
   // face fluxes: two planes for the w faces, the row's u faces and two rows
   // for its v faces (kFluxPad floats around each).
   scratch_len_ = 7 * plane_cap_ + 3 + 12 * kFluxPad;
-  if (scratch_len_ < 4 * int64_t(kNoiseSamples)) scratch_len_ = 4 * int64_t(kNoiseSamples);
+  if (scratch_len_ < 7 * int64_t(kNoisePoints)) scratch_len_ = 7 * int64_t(kNoisePoints);
   if (max_voxels_ == 0) scratch_len_ = 0;
   buf_ = a.alloc<float>(size_t(max_voxels_));
   scratch_ = a.alloc<float>(size_t(scratch_len_));
@@ -246,34 +237,30 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
 }
 
 void SmoothedRoi::estimate_noise(const VolumeView& vol) {
-  int64_t e[3], count = 1;
-  for (int a = 0; a < 3; ++a) {
-    e[a] = shi_[a] - slo_[a];
-    count *= e[a];
-  }
-  const int64_t cap = count < int64_t(kNoiseSamples) ? count : int64_t(kNoiseSamples);
+  // Voxels of a lattice that flips and axis permutations map onto itself
+  // (box_lattice.h), and at each the differences to both neighbours along
+  // each axis: forward differences alone would become backward ones in a
+  // flipped copy and pair other voxels.
+  const BoxLattice lat = BoxLattice::fit(slo_, shi_, kNoisePoints);
+  const int64_t cap = kNoisePoints;
   int64_t ns = 0;
   float* vals = scratch_;
-  float* dif[3] = {scratch_ + cap, scratch_ + 2 * cap, scratch_ + 3 * cap};
+  float* dif[3] = {scratch_ + cap, scratch_ + 3 * cap, scratch_ + 5 * cap};
   int64_t nd[3] = {0, 0, 0};
-  for (int64_t s = 0; s < cap; ++s) {
-    int64_t m = cap == count ? s : weyl_index(uint32_t(s), count);
-    int64_t p[3];
-    p[0] = slo_[0] + m % e[0];
-    m /= e[0];
-    p[1] = slo_[1] + m % e[1];
-    p[2] = slo_[2] + m / e[1];
-    const double x = vol.at(p[0], p[1], p[2]);
-    if (!std::isfinite(x)) continue;  // non-finite voxels take no part in the statistics
+  lat.for_each([&](int64_t i, int64_t j, int64_t k) {
+    const double x = vol.at(i, j, k);
+    if (!std::isfinite(x) || ns >= cap) return;  // non-finite voxels take no part in the statistics
     vals[ns++] = float(x);
-    for (int a = 0; a < 3; ++a) {
-      if (p[a] + 1 >= shi_[a]) continue;
-      int64_t q[3] = {p[0], p[1], p[2]};
-      ++q[a];
-      const double d = std::fabs(vol.at(q[0], q[1], q[2]) - x);
-      if (std::isfinite(d)) dif[a][nd[a]++] = float(d);
-    }
-  }
+    const int64_t p[3] = {i, j, k};
+    for (int a = 0; a < 3; ++a)
+      for (int side = -1; side <= 1; side += 2) {
+        int64_t q[3] = {p[0], p[1], p[2]};
+        q[a] += side;
+        if (q[a] < slo_[a] || q[a] >= shi_[a]) continue;
+        const double d = std::fabs(vol.at(q[0], q[1], q[2]) - x);
+        if (std::isfinite(d)) dif[a][nd[a]++] = float(d);
+      }
+  });
   if (ns == 0) {
     p_lo_ = p_hi_ = 0;
     sigma_n_ = 0;

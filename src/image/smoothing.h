@@ -21,7 +21,9 @@
 // Contrast parameter kappa (intensity per mm; c = 1/2 where |grad I| = kappa).
 // Default (kappa <= 0): kappa = 2 sigma_n / h_min, with sigma_n a robust noise
 // estimate of the raw data in the requested box: sigma_a = 1.4826 *
-// median|I(x + e_a) - I(x)| / sqrt(2) per axis over a deterministic subsample,
+// median|I(x +- e_a) - I(x)| / sqrt(2) per axis over at most kNoisePoints voxels
+// x of the statistics box, a lattice that a flipped or permuted copy of the
+// volume chooses the same anatomy of (box_lattice.h; so are its p1..p99),
 // sigma_n = the smallest of the three (structure only inflates an axis'
 // estimate). That is Black et al. 1998's robust scale sigma_e = 1.4826 MAD of
 // the directional derivatives, with kappa = sqrt(2) sigma_e (the Lorentzian's
@@ -38,8 +40,8 @@
 // Memory: max_voxels floats for the region, plus 2 planes of the region (and 3
 // zero floats around them, read by the vector kernels' edge lanes) for the
 // in-place sweep (the region is stored with its longest axis slowest, so a plane
-// holds at most max_voxels^(2/3) voxels), at least 4 * kNoiseSamples floats
-// (shared with the noise estimate).
+// holds at most max_voxels^(2/3) voxels), at least 7 * kNoisePoints floats
+// (shared with the noise estimate: a value and six differences per voxel).
 //
 // Values beyond the stored region: sample_index() clamps to the nearest stored
 // voxel; inside_index() tells whether a point lies in the region's voxel box
@@ -80,7 +82,7 @@ enum class RoiStatus : int {
 
 class SmoothedRoi {
  public:
-  static constexpr uint32_t kNoiseSamples = 8192;
+  static constexpr uint32_t kNoisePoints = 4681;  // 7 floats each: the 32768 of the scratch's floor
 
   // Floats per sweep plane for a region of at most max_voxels voxels.
   static int64_t plane_capacity(int64_t max_voxels);

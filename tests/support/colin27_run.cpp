@@ -23,6 +23,15 @@ ffseg_volume volume_of(const ffseg_tools::NiftiImage& img) {
   return v;
 }
 
+void protocol_sphere(const ffseg_tools::NiftiImage& t1, const std::vector<uint8_t>& truth, double c[3], double* r) {
+  std::array<int, 3> ijk{};
+  double depth = 0;
+  REQUIRE(ffseg_tools::find_deepest_voxel(truth.data(), t1.dims, t1.spacing, &ijk, &depth));
+  const double* A = t1.index_to_world;
+  for (int q = 0; q < 3; ++q) c[q] = A[4 * q] * ijk[0] + A[4 * q + 1] * ijk[1] + A[4 * q + 2] * ijk[2] + A[4 * q + 3];
+  *r = depth / 2;
+}
+
 StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg_tools::NiftiImage& aal, int label,
                                   const char* name, uint32_t n, int max_steps, const StructureRunOptions& o) {
   StructureResult res;
@@ -31,13 +40,9 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
   const size_t N = aal.data.size();
   std::vector<uint8_t> truth(N);
   for (size_t i = 0; i < N; ++i) truth[i] = aal.data[i] == label;
-  std::array<int, 3> ijk{};
-  double depth = 0;
-  REQUIRE(ffseg_tools::find_deepest_voxel(truth.data(), aal.dims, aal.spacing, &ijk, &depth));
-  double c[3];
-  for (int r = 0; r < 3; ++r)
-    c[r] = t1.index_to_world[4 * r] * ijk[0] + t1.index_to_world[4 * r + 1] * ijk[1] + t1.index_to_world[4 * r + 2] * ijk[2] +
-           t1.index_to_world[4 * r + 3];
+  double c[3], depth = 0;
+  protocol_sphere(t1, truth, c, &depth);
+  depth *= 2;  // the label's depth
   if (o.shift_mm)
     for (int r = 0; r < 3; ++r) c[r] += o.shift_mm[r];
   depth *= o.radius_scale;

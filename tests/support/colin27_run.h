@@ -41,6 +41,10 @@ struct StructureRunOptions {
 
 ffseg_volume volume_of(const ffseg_tools::NiftiImage& img);
 
+// The protocol sphere of a label's mask (truth, on t1's grid): centre c (mm)
+// at the voxel farthest from the label's border, radius *r half that distance.
+void protocol_sphere(const ffseg_tools::NiftiImage& t1, const std::vector<uint8_t>& truth, double c[3], double* r);
+
 StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg_tools::NiftiImage& aal, int label,
                                   const char* name, uint32_t n, int max_steps,
                                   const StructureRunOptions& o = StructureRunOptions());

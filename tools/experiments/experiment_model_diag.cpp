@@ -84,9 +84,7 @@ TEST_CASE("colin27 model diagnostic") {
     REQUIRE(roi.compute(vol, lo, hi, sm) == RoiStatus::ok);
     IntensityModelSettings ms;
     ms.sigma_floor_fraction = sigf;
-    LutSpec lut;
-    lut.type = vol.type();
-    REQUIRE(model.fit(roi, c, r, ms, lut) == ModelStatus::ok);
+    REQUIRE(model.fit(roi, c, r, ms) == ModelStatus::ok);
     sm.kappa = roi.kappa();
     REQUIRE(big.compute(vol, blo, bhi, sm) == RoiStatus::ok);
     const int* D = aal.dims;
