@@ -28,7 +28,7 @@ TEST_CASE("stability experiment") {
                                                     {37, "hippocampus L"}, {38, "hippocampus R"}};
   const uint32_t n = std::getenv("FFSEG_N") ? uint32_t(std::atoi(std::getenv("FFSEG_N"))) : 12;
   const char* only = std::getenv("FFSEG_ONLY");
-  std::printf("| structure | Dice x0.6 / x1 / x1.5 / +x / +y / +z | pairwise Dice min / mean |\n|---|---|---|\n");
+  std::printf("| structure | Dice (volume, steps) x0.6 / x1 / x1.5 / +x / +y / +z | pairwise Dice min / mean |\n|---|---|---|\n");
   double all_min = 1, all_mean = 0;
   int count = 0;
   for (auto& st : structures) {
@@ -43,8 +43,8 @@ TEST_CASE("stability experiment") {
       o.shift_mm = shifts[k];
       o.mask_out = &masks[k];
       const StructureResult r = segment_structure(t1, aal, st.first, st.second, n, 100, o);
-      char b[16];
-      std::snprintf(b, sizeof b, "%s%.3f", k ? " / " : "", r.m.dice);
+      char b[64];
+      std::snprintf(b, sizeof b, "%s%.3f (%.1f ml, %d steps)", k ? " / " : "", r.m.dice, r.m.vol_a_ml, r.steps);
       dices += b;
     }
     double mn = 1, mean = 0;
