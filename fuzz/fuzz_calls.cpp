@@ -265,6 +265,22 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (which & 512) p.diffusion_iterations = pick_u32(in);
         if (which & 1024) p.consecutive_background = pick_u32(in);
         if (which & 2048) p.struct_size = in.take<uint8_t>();
+        if (which & 8192) {  // the grey-level and bounding-region fields (chapters 5 and 6)
+          const uint16_t more = in.take<uint16_t>();
+          if (more & 1) p.smoothing_iterations = pick_u32(in);
+          if (more & 2) p.bin_min_count = pick_u32(in);
+          if (more & 4) p.smoothing_kappa = pick_double(in);
+          if (more & 8) p.intensity_gamma = pick_double(in);
+          if (more & 16) p.sigma_floor_fraction = pick_double(in);
+          if (more & 32) p.bin_radius = pick_double(in);
+          if (more & 64) p.bin_separation = pick_double(in);
+          if (more & 128) p.partial_volume_steps = pick_u32(in);
+          if (more & 256) p.region_width_mm = pick_double(in);
+          if (more & 512) p.border_weight = pick_double(in);
+          if (more & 1024) p.region_interval = pick_u32(in);
+          if (more & 2048) p.reserved1 = pick_u32(in);
+          if (more & 4096) p.reserved2 = pick_u32(in);
+        }
         st = ffseg_set_params(e, (which & 4096) ? nullptr : &p);
         check_status(st, "set_params");
         if (st == FFSEG_ERR_INVALID_ARGUMENT && std::strstr(ffseg_last_error(e), "params.") == nullptr)
