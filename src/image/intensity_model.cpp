@@ -132,8 +132,13 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     say(msg, msg_len, "intensity model: the region's noise or intensity range is not finite (grey levels beyond float range)");
     return ModelStatus::not_finite;
   }
-  const ModelStatus st = fit_samples(samples_, n, floor, s, msg, msg_len);
-  if (st != ModelStatus::ok || !s.scene_competitors) return st;
+  // The peak and the table once, when the competition is known.
+  const ModelStatus st = fit_object(samples_, n, floor, s, msg, msg_len);
+  if (st != ModelStatus::ok) return st;
+  if (!s.scene_competitors) {
+    normalise_and_tabulate();
+    return st;
+  }
 
   // The scene: the same mixture fit (Algorithm 2 + EM, same floor) over the
   // crop's statistics box (SmoothingSettings::stats_lo), a lattice of it
@@ -150,7 +155,10 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   std::sort(samples_, samples_ + ns);
   double smean = 0;
   for (uint32_t j = 0; j < ns; ++j) smean += samples_[j];
-  if (ns == 0) return st;
+  if (ns == 0) {
+    normalise_and_tabulate();
+    return st;
+  }
   smean /= ns;
   double sm2 = 0;
   for (uint32_t j = 0; j < ns; ++j) sm2 += (samples_[j] - smean) * (samples_[j] - smean);
@@ -168,12 +176,19 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     if (own[c]) obj_weight_ += scene[c].weight;
     else scene_[sm_++] = scene[c];
   }
-  if (sm_ > 0) normalise_and_tabulate();  // the table now includes the competition
+  normalise_and_tabulate();  // the table includes the competition
   return st;
 }
 
 ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma_floor,
                                         const IntensityModelSettings& s, char* msg, size_t msg_len) {
+  const ModelStatus st = fit_object(x, n, sigma_floor, s, msg, msg_len);
+  if (st == ModelStatus::ok) normalise_and_tabulate();
+  return st;
+}
+
+ModelStatus IntensityModel::fit_object(const float* x, uint32_t n, double sigma_floor,
+                                       const IntensityModelSettings& s, char* msg, size_t msg_len) {
   m_ = 0;
   lut_n_ = 0;
   if (n == 0 || x == nullptr) {
@@ -201,7 +216,6 @@ ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma
   m2 /= nf;
   m_ = fit_mixture(cpu_, x, n, mean, m2, sigma_floor, s, comp_, &bins_);
   sm_ = 0;
-  normalise_and_tabulate();
   return ModelStatus::ok;
 }
 
@@ -310,13 +324,12 @@ void IntensityModel::normalise_and_tabulate() {
   best = std::max(best, density(0.5 * (a + b)));
   peak_ = best > 0 ? best : 1;
 
-  // Where every component's and competitor's exponent -d^2 / (2 var) is below
-  // -746, each exp is 0 (e^-746 < 2^-1076, under half the least subnormal), so
-  // g_direct is 0 there: only values within sqrt(1492 var) (plus a relative
-  // margin for rounding) of some mean are evaluated.
+  // Beyond kTableSigmas sd of every class each exp is below e^-112, so g is
+  // under 1e-48: below the least float, which the table would store as 0.
+  // The table spans the classes' +-kTableSigmas and g reads 0 beyond it.
   double vlo = INFINITY, vhi = -INFINITY;
   auto widen = [&](const Gaussian1& c) {
-    const double w = std::sqrt(1492.0 * c.var) * (1 + 1e-6) + 1e-6 * std::fabs(c.mean) + 1e-300;
+    const double w = kTableSigmas * std::sqrt(c.var) * (1 + 1e-6) + 1e-6 * std::fabs(c.mean) + 1e-300;
     vlo = std::min(vlo, c.mean - w);
     vhi = std::max(vhi, c.mean + w);
   };

@@ -67,11 +67,11 @@
 // first bins are not biased to one end of the range.
 //
 // Evaluation: g is tabulated from the model alone (kLutStepsPerSigma steps
-// per sd of its narrowest class, over the span where some class's density is
-// not 0, at most kLutMax entries) and linearly interpolated, whatever the
-// voxel type: a u8 volume and an f32 copy of it give the same g (issue 19;
-// the table once followed the type's representable values, and u8 read
-// another g than f32). Beyond the table, g_direct.
+// per sd of its narrowest class, over +-kTableSigmas sd of every class, at
+// most kLutMax entries) and linearly interpolated, whatever the voxel type: a
+// u8 volume and an f32 copy of it give the same g (issue 19; the table once
+// followed the type's representable values, and u8 read another g than
+// f32). Beyond the table g is 0 (g_direct is below 1e-48 there), NaN too.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -102,8 +102,9 @@ class IntensityModel {
  public:
   static constexpr uint32_t kMaxComponents = kMaxMixtureComponents;
   static constexpr uint32_t kMaxBins = kMaxBinningClusters;
-  static constexpr uint32_t kLutMax = 65536;
+  static constexpr uint32_t kLutMax = 16384;
   static constexpr double kLutStepsPerSigma = 32;  // linear interpolation error below 2e-4 of the peak
+  static constexpr double kTableSigmas = 15;       // the table's span around each class (g < 1e-48 beyond)
   static constexpr uint32_t kDefaultSamples = 65536;  // a suggested cap (256 KB)
   static constexpr uint32_t kSceneSamples = 16384;    // cap on the crop voxels of the scene mixture
   // The scene fit bins its samples (compress_samples) when it has more than
@@ -136,12 +137,11 @@ class IntensityModel {
   double g(double v) const {
     if (lut_n_ > 0) {
       const double f = (v - lut_v0_) * lut_inv_step_;
-      if (f >= 0 && f <= double(lut_n_ - 1)) {
-        const uint32_t i = uint32_t(f);
-        if (i + 1 >= lut_n_) return lut_[lut_n_ - 1];
-        const double fr = f - double(i);
-        return double(lut_[i]) + fr * (double(lut_[i + 1]) - double(lut_[i]));
-      }
+      if (!(f >= 0 && f <= double(lut_n_ - 1))) return 0.0;  // beyond every class (or NaN)
+      const uint32_t i = uint32_t(f);
+      if (i + 1 >= lut_n_) return lut_[lut_n_ - 1];
+      const double fr = f - double(i);
+      return double(lut_[i]) + fr * (double(lut_[i + 1]) - double(lut_[i]));
     }
     return g_direct(v);
   }
@@ -192,6 +192,9 @@ class IntensityModel {
                               uint32_t* bins_found, double* hist = nullptr);
 
   void normalise_and_tabulate();
+  // fit_samples() without the peak and the table (fit() makes them once, after the scene).
+  ModelStatus fit_object(const float* x, uint32_t n, double sigma_floor, const IntensityModelSettings& s,
+                         char* msg, size_t msg_len);
 
   CpuDispatch cpu_;
   float* samples_ = nullptr;
