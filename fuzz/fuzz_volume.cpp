@@ -59,13 +59,6 @@ constexpr int kStepBudget = 9;
 // Inputs at n >= 3 step only when their hash is 0 modulo this (see the step loop).
 constexpr uint32_t kLargeStepShare = 4;
 
-// FNV-1a: a mutation anywhere in the input changes it.
-uint32_t input_hash(const uint8_t* p, size_t n) {
-  uint32_t h = 2166136261u;
-  for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 16777619u;
-  return h;
-}
-
 [[noreturn]] void finding(const char* what, ffseg_status st) {
   std::fprintf(stderr, "fuzz_volume: %s (status %d)\n", what, int(st));
   std::abort();
@@ -279,7 +272,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const int step_cost = int(n * n) * (prm.target_mode == FFSEG_TARGET_INTENSITY ? 2 : 1);
   // A step at n = 3 costs twice one at n = 2 (about 1 ms of CPU) and was
   // taken by 40% of the inputs run; one input in kLargeStepShare gets it.
-  int budget = (n <= 2 || input_hash(data, size) % kLargeStepShare == 0) ? kStepBudget : 0;
+  int budget = (n <= 2 || ffseg_fuzz::input_hash(data, size) % kLargeStepShare == 0) ? kStepBudget : 0;
   for (int s = 0; s < nsteps_asked && budget >= step_cost; ++s, budget -= step_cost) {
     ffseg_step_info info;
     std::memset(&info, 0, sizeof info);
