@@ -36,7 +36,8 @@
   F(ffseg_step_info, active_objects) F(ffseg_step_info, reserved0)                          \
   F(ffseg_step_info, mean_displacement_mm) F(ffseg_step_info, vertices_with_target)         \
   F(ffseg_step_info, flips_avoided) F(ffseg_step_info, intersections_avoided)               \
-  F(ffseg_step_info, border_vertices) F(ffseg_step_info, stage_us)
+  F(ffseg_step_info, border_vertices) F(ffseg_step_info, stage_us)                         \
+  F(ffseg_step_info, object_flags) F(ffseg_step_info, flags_all) F(ffseg_step_info, reserved1)
 
 /* S(struct, FIELDS-macro) for each public struct. */
 #define FFSEG_PUBLIC_STRUCTS(S)                                                           \

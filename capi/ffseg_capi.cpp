@@ -25,6 +25,7 @@ ffseg_status to_status(Err e) {
   switch (e) {
     case Err::ok: return FFSEG_OK;
     case Err::converged: return FFSEG_CONVERGED;
+    case Err::degenerate: return FFSEG_DEGENERATE;
     case Err::invalid_argument: return FFSEG_ERR_INVALID_ARGUMENT;
     case Err::null_pointer: return FFSEG_ERR_NULL_POINTER;
     case Err::workspace_too_small: return FFSEG_ERR_WORKSPACE_TOO_SMALL;
@@ -208,6 +209,7 @@ FFSEG_API const char* ffseg_status_string(ffseg_status s) {
   switch (s) {
     case FFSEG_OK: return "ok";
     case FFSEG_CONVERGED: return "converged";
+    case FFSEG_DEGENERATE: return "at rest, but some object is no segmentation (ffseg_step_info.object_flags)";
     case FFSEG_ERR_INVALID_ARGUMENT: return "invalid argument";
     case FFSEG_ERR_NULL_POINTER: return "null pointer";
     case FFSEG_ERR_WORKSPACE_TOO_SMALL: return "workspace too small";
@@ -423,18 +425,24 @@ static ffseg_status init_sphere_call(ffseg_engine* e, uint32_t object, const dou
   return to_status(en->init_sphere(object, center_mm, radius_mm));
 }
 
+// Callers built against 0.3 pass an ffseg_step_info that ends after
+// stage_us; they get the fields they know, and the bytes past them are theirs.
+static const size_t kStepInfoFirstSize = offsetof(ffseg_step_info, object_flags);
+static_assert(FFSEG_OBJECT_NO_BOUNDARY == ffseg::kObjectNoBoundary && FFSEG_OBJECT_FILLS_GRID == ffseg::kObjectFillsGrid,
+              "object flags");
+
 static ffseg_status step_call(ffseg_engine* e, ffseg_step_info* info) {
   FFSEG_REQUIRE_ENGINE(e);
   Engine* en = impl(e);
   en->clear_message();
-  if (info != nullptr && info->struct_size < sizeof(ffseg_step_info)) {
+  if (info != nullptr && info->struct_size < kStepInfoFirstSize) {
     std::snprintf(en->message_buffer(), Engine::kMsgLen, "step_info.struct_size = %u is smaller than %zu",
-                  info->struct_size, sizeof(ffseg_step_info));
+                  info->struct_size, kStepInfoFirstSize);
     return FFSEG_ERR_STRUCT_SIZE;
   }
   ffseg::StepReport r;
   const Err st = en->step(&r);
-  if (info != nullptr && (st == Err::ok || st == Err::converged)) {
+  if (info != nullptr && (st == Err::ok || st == Err::converged || st == Err::degenerate)) {
     static_assert(ffseg::kReportObjects == FFSEG_REPORT_OBJECTS, "report sizes");
     static_assert(ffseg::kStageCount == FFSEG_STAGE_COUNT, "stage counts");
     info->step_index = r.step_index;
@@ -448,6 +456,11 @@ static ffseg_status step_call(ffseg_engine* e, ffseg_step_info* info) {
       info->border_vertices[i] = r.border_vertices[i];
     }
     for (int s = 0; s < FFSEG_STAGE_COUNT; ++s) info->stage_us[s] = r.stage_us[s];
+    if (info->struct_size >= sizeof(ffseg_step_info)) {
+      for (uint32_t i = 0; i < FFSEG_REPORT_OBJECTS; ++i) info->object_flags[i] = r.object_flags[i];
+      info->flags_all = r.flags_all;
+      info->reserved1 = 0;
+    }
   }
   return to_status(st);
 }

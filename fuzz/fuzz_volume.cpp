@@ -283,8 +283,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     // Grey-level targets: a sphere holding no voxel centre of its crop is
     // SPHERE_OUTSIDE at the first step (finding 4 of FUZZING.md).
     if (st == FFSEG_ERR_SPHERE_OUTSIDE && prm.target_mode == FFSEG_TARGET_INTENSITY) break;
-    expect_one_of(st, {FFSEG_OK, FFSEG_CONVERGED, FFSEG_ERR_NUMERIC, FFSEG_ERR_ROI_TOO_LARGE}, "step");
+    expect_one_of(st, {FFSEG_OK, FFSEG_CONVERGED, FFSEG_DEGENERATE, FFSEG_ERR_NUMERIC, FFSEG_ERR_ROI_TOO_LARGE}, "step");
     if (st < 0) break;
+    // One object: its flags are all the flags, and at rest they alone tell
+    // a degenerate result from a converged one.
+    if (info.flags_all != info.object_flags[0] || (info.flags_all & ~3u) != 0)
+      finding("step: flags_all is not object 0's flags", st);
+    if (st != FFSEG_OK && (st == FFSEG_DEGENERATE) != (info.flags_all != 0))
+      finding("step: status and flags disagree", st);
   }
   if ((flags & 128) && budget >= step_cost) {
     // A broken descriptor is refused and the accepted volume stays.
@@ -293,7 +299,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     expect_one_of(ffseg_set_volume(e, &bad), {FFSEG_ERR_INVALID_VOLUME}, "set_volume with data_bytes 0");
     const ffseg_status st = ffseg_step(e, nullptr);
     if (!(st == FFSEG_ERR_SPHERE_OUTSIDE && prm.target_mode == FFSEG_TARGET_INTENSITY))
-      expect_one_of(st, {FFSEG_OK, FFSEG_CONVERGED, FFSEG_ERR_NUMERIC, FFSEG_ERR_ROI_TOO_LARGE},
+      expect_one_of(st, {FFSEG_OK, FFSEG_CONVERGED, FFSEG_DEGENERATE, FFSEG_ERR_NUMERIC, FFSEG_ERR_ROI_TOO_LARGE},
                     "step after refused volume");
   }
 

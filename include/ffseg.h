@@ -32,7 +32,9 @@
  *     ffseg_engine* e;   ffseg_create(&cfg, ws, bytes, &e);
  *     ffseg_set_volume(e, &volume);
  *     ffseg_init_sphere(e, 0, centre_mm, radius_mm);
- *     while (ffseg_step(e, NULL) == FFSEG_OK) {}
+ *     while ((st = ffseg_step(e, NULL)) == FFSEG_OK) {}
+ *         (st: FFSEG_CONVERGED, or FFSEG_DEGENERATE when some object's
+ *         result is no segmentation, or an error)
  *     ffseg_extract_mesh(e, 0, xyz, nv_cap, tris, nt_cap, &nv, &nt);
  *     ffseg_destroy(e);  free(ws);
  */
@@ -60,7 +62,7 @@ extern "C" {
 
 /* ---- Version ------------------------------------------------------------ */
 #define FFSEG_VERSION_MAJOR 0
-#define FFSEG_VERSION_MINOR 3
+#define FFSEG_VERSION_MINOR 4
 #define FFSEG_VERSION_PATCH 0
 #define FFSEG_VERSION_NUMBER \
   (FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH)
@@ -78,6 +80,11 @@ typedef int32_t ffseg_status;
 #define FFSEG_OK 0
 /* ffseg_step: every object has converged (mean displacement below tolerance). */
 #define FFSEG_CONVERGED 1
+/* Since 0.4.0. ffseg_step: every object has come to rest as for
+ * FFSEG_CONVERGED, but the result of at least one is no segmentation
+ * (ffseg_step_info.object_flags says which and why: FFSEG_OBJECT_*). Not a
+ * success, not an error: the meshes and masks can still be read. */
+#define FFSEG_DEGENERATE 2
 
 /* An argument is out of its documented range (the message names it). */
 #define FFSEG_ERR_INVALID_ARGUMENT (-1)
@@ -296,6 +303,17 @@ FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object,
 /* Per-object figures are reported for the first FFSEG_REPORT_OBJECTS objects. */
 #define FFSEG_REPORT_OBJECTS 16
 
+/* Since 0.4.0: the bits of ffseg_step_info.object_flags. */
+/* No vertex of the object found a boundary in any step since it was placed
+ * (or since the last ffseg_set_volume / ffseg_set_params): its mesh only
+ * stood still, e.g. a sphere in uniform background or around the whole scan. */
+#define FFSEG_OBJECT_NO_BOUNDARY 1u
+/* More than 80% of the grid's voxels have their centres inside the object's
+ * mesh (the voxels ffseg_rasterize sets): it swallowed the background (a
+ * leak, or a sphere placed around everything). An organ that truly fills
+ * that much of its scan is flagged too: crop the volume with a margin. */
+#define FFSEG_OBJECT_FILLS_GRID 2u
+
 typedef struct ffseg_step_info {
   uint32_t struct_size;   /* sizeof(ffseg_step_info) */
   uint32_t step_index;    /* steps taken so far, this one included */
@@ -307,22 +325,33 @@ typedef struct ffseg_step_info {
   uint32_t intersections_avoided[FFSEG_REPORT_OBJECTS];
   uint32_t border_vertices[FFSEG_REPORT_OBJECTS];
   uint64_t stage_us[FFSEG_STAGE_COUNT];
+  /* Since 0.4.0; a caller's struct of an older header, which ends before
+   * these, gets the fields above only. */
+  uint32_t object_flags[FFSEG_REPORT_OBJECTS]; /* FFSEG_OBJECT_* of each reported object as of its last
+                                                  step (an object at rest keeps them); 0: looks like a
+                                                  segmentation */
+  uint32_t flags_all;     /* every placed object's flags or-ed, those beyond FFSEG_REPORT_OBJECTS too */
+  uint32_t reserved1;     /* written 0 */
 } ffseg_step_info;
 
 /* One deformation step of every placed object (thesis Algorithm 1). Returns
- * FFSEG_OK, or FFSEG_CONVERGED once every object's mean displacement is below
- * params.convergence_mm. An object that has converged stays where it is on
+ * FFSEG_OK while some object moves; once every object's mean displacement is
+ * below params.convergence_mm, FFSEG_CONVERGED, or FFSEG_DEGENERATE instead
+ * when some object's flags (FFSEG_OBJECT_*) are not 0. A loop
+ * `while (ffseg_step(e, NULL) == FFSEG_OK)` ends on either; only
+ * FFSEG_CONVERGED is a success. An object that has converged stays where it is on
  * later steps (its report reads 0 mm) until ffseg_init_sphere places it again
  * or ffseg_set_params / ffseg_set_volume change what it deforms towards, so
  * stepping past convergence is harmless. info may be NULL; otherwise info->struct_size must be
- * set. Errors: MISUSE (no volume or no object), NUMERIC (mesh unchanged),
+ * set (sizeof(ffseg_step_info) of this header or of an older one). Errors:
+ * MISUSE (no volume or no object), NUMERIC (mesh unchanged),
  * ROI_TOO_LARGE, NOT_IMPLEMENTED (a target mode this build lacks),
- * STRUCT_SIZE (info->struct_size smaller than this header's), and with
+ * STRUCT_SIZE (info->struct_size smaller than 0.3.0's, which ends at stage_us), and with
  * grey-level targets SPHERE_OUTSIDE (the sphere holds no voxel centre of its
  * cropped region, e.g. a sphere smaller than a voxel between voxel centres, or
  * the mesh has left the grid; the mesh is unchanged). *info is written only
- * when the call returns FFSEG_OK or FFSEG_CONVERGED; on an error it is left
- * untouched. */
+ * when the call returns FFSEG_OK, FFSEG_CONVERGED or FFSEG_DEGENERATE; on an
+ * error it is left untouched. */
 FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info);
 
 /* Copies object `object`'s mesh out: xyz gets 3 floats (mm) per vertex, tris

@@ -21,6 +21,10 @@ namespace Ffseg {
 public static class Status {
   public const int Ok = 0;
   public const int Converged = 1;
+  // Every object at rest, but some result is no segmentation (StepInfo.ObjectFlags).
+  public const int Degenerate = 2;
+  public const uint ObjectNoBoundary = 1;
+  public const uint ObjectFillsGrid = 2;
   public const int ErrInvalidArgument = -1;
   public const int ErrNullPointer = -2;
   public const int ErrWorkspaceTooSmall = -3;
@@ -137,6 +141,9 @@ public unsafe struct StepInfo {
   public fixed uint IntersectionsAvoided[16];
   public fixed uint BorderVertices[16];
   public fixed ulong StageUs[10];
+  public fixed uint ObjectFlags[16];
+  public uint FlagsAll;
+  public uint Reserved1;
 }
 
 internal static class Native {
@@ -297,18 +304,24 @@ public sealed class Engine : IDisposable {
     Check(Native.ffseg_init_sphere(Live(), obj, centerMm, radiusMm), raw_);
   }
 
+  // The last Step's status (Status.Ok, Converged or Degenerate).
+  public int LastStatus { get; private set; }
+
   // One deformation step; true once every object has converged.
   public unsafe bool Step(out StepInfo info) {
     info = new StepInfo();
     info.StructSize = (uint)sizeof(StepInfo);
-    return Check(Native.ffseg_step(Live(), ref info), raw_) == Status.Converged;
+    LastStatus = Check(Native.ffseg_step(Live(), ref info), raw_);
+    return LastStatus == Status.Converged;
   }
 
-  // Steps until converged or maxSteps steps were taken; returns the last step's report.
+  // Steps until every object is at rest (converged, or Degenerate: see
+  // LastStatus and StepInfo.ObjectFlags) or maxSteps steps were taken;
+  // returns the last step's report.
   public StepInfo Run(uint maxSteps, out bool converged) {
     StepInfo info;
     converged = Step(out info);
-    while (!converged && info.StepIndex < maxSteps) converged = Step(out info);
+    while (!converged && LastStatus != Status.Degenerate && info.StepIndex < maxSteps) converged = Step(out info);
     return info;
   }
 

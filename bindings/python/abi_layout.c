@@ -38,7 +38,8 @@ int main(void) {
   F(ffseg_step_info, reserved0); F(ffseg_step_info, mean_displacement_mm);
   F(ffseg_step_info, vertices_with_target); F(ffseg_step_info, flips_avoided);
   F(ffseg_step_info, intersections_avoided); F(ffseg_step_info, border_vertices);
-  F(ffseg_step_info, stage_us);
+  F(ffseg_step_info, stage_us); F(ffseg_step_info, object_flags); F(ffseg_step_info, flags_all);
+  F(ffseg_step_info, reserved1);
 
   /* Constants the mirror repeats. */
   printf("const FFSEG_STAGE_COUNT %d\n", FFSEG_STAGE_COUNT);
@@ -46,6 +47,9 @@ int main(void) {
   printf("const FFSEG_TARGET_BINARY %d\n", FFSEG_TARGET_BINARY);
   printf("const FFSEG_TARGET_INTENSITY %d\n", FFSEG_TARGET_INTENSITY);
   printf("const FFSEG_CONVERGED %d\n", FFSEG_CONVERGED);
+  printf("const FFSEG_DEGENERATE %d\n", FFSEG_DEGENERATE);
+  printf("const FFSEG_OBJECT_NO_BOUNDARY %u\nconst FFSEG_OBJECT_FILLS_GRID %u\n", FFSEG_OBJECT_NO_BOUNDARY,
+         FFSEG_OBJECT_FILLS_GRID);
   printf("const FFSEG_U8 %d\nconst FFSEG_I16 %d\nconst FFSEG_U16 %d\n", FFSEG_U8, FFSEG_I16, FFSEG_U16);
   printf("const FFSEG_I32 %d\nconst FFSEG_F32 %d\nconst FFSEG_F64 %d\n", FFSEG_I32, FFSEG_F32, FFSEG_F64);
   return 0;

@@ -113,7 +113,10 @@ Err Engine::set_params(const Params& p) {
   const Err r = check_params(p, msg_, kMsgLen);
   if (r == Err::ok) {
     params_ = p;
-    for (uint32_t i = 0; i < cfg_.max_objects; ++i) objects_[i].convergence.restart();  // new terms: move again
+    for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
+      objects_[i].convergence.restart();  // new terms: move again
+      objects_[i].found_boundary = false;  // ... and look for a boundary under them
+    }
   }
   return r;
 }
@@ -127,6 +130,7 @@ Err Engine::set_volume(const VolumeDesc& d) {
     objects_[i].model.reset();
     if (objects_[i].region) objects_[i].region->valid = false;
     objects_[i].convergence.restart();
+    objects_[i].found_boundary = false;
   }
   return Err::ok;
 }
@@ -220,6 +224,8 @@ Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
   for (int d = 0; d < 3; ++d) o.center[d] = c[d];
   o.radius = r;
   o.placed = true;
+  o.found_boundary = false;
+  o.flags = 0;
   o.convergence.reset();
   o.roi.invalidate();
   o.model.reset();
@@ -397,12 +403,22 @@ Err Engine::step(StepReport* r) {
   }
 
   // 7. Convergence, object by object, and the report of the first objects.
+  // An object at rest is not necessarily segmented: a mesh that never met a
+  // boundary only stood still, and one holding most of the grid swallowed
+  // the background. Its flags say so; they change only while it moves.
   bool all_converged = true;
   uint32_t slot = 0;
   for (uint32_t i = 0; i < N; ++i) {
     Object& o = objects_[i];
     if (!o.placed) continue;
     const uint32_t at = slot++;  // report slots follow the placed objects
+    if (!o.convergence.converged()) {
+      if (o.step.found > 0) o.found_boundary = true;
+      o.flags = (o.found_boundary ? 0u : uint32_t(kObjectNoBoundary)) |
+                (mesh_fills_grid(mesh_, o.x, vol_, kFillsGridFraction) ? uint32_t(kObjectFillsGrid) : 0u);
+    }
+    if (at < kReportObjects) r->object_flags[at] = o.flags;
+    r->flags_all |= o.flags;
     if (o.convergence.converged()) continue;
     const ObjectStep& st = o.step;
     if (at < kReportObjects) {
@@ -418,7 +434,8 @@ Err Engine::step(StepReport* r) {
   ++steps_;
   r->step_index = steps_;
   r->active_objects = placed;
-  return all_converged ? Err::converged : Err::ok;
+  if (!all_converged) return Err::ok;
+  return r->flags_all != 0 ? Err::degenerate : Err::converged;
 }
 
 // Each placed object's region is recomputed when it has none, every

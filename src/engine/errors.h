@@ -6,6 +6,7 @@ namespace ffseg {
 enum class Err : int {
   ok = 0,
   converged,
+  degenerate,  // every object at rest, but some object's result is no segmentation (ObjectFlag)
   invalid_argument,
   null_pointer,
   workspace_too_small,

@@ -39,6 +39,11 @@ struct ObjectStep {
 
 struct Object {
   bool placed = false;
+  // Some vertex found a boundary in a step since the object was placed (or
+  // the volume or the parameters changed); flags: what its result lacks
+  // (ObjectFlag), as of its last step. Both sit in the padding after placed.
+  bool found_boundary = false;
+  uint32_t flags = 0;
   double center[3] = {0, 0, 0};
   double radius = 0;
   double* x = nullptr;  // 3 * nv current vertex positions, mm

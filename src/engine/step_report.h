@@ -22,6 +22,17 @@ enum Stage : int {
 
 constexpr uint32_t kReportObjects = 16;
 
+// Why an object's result is no segmentation (ffseg.h FFSEG_OBJECT_*).
+enum ObjectFlag : uint32_t {
+  kObjectNoBoundary = 1,  // no vertex found a boundary in any step since the object was placed
+  kObjectFillsGrid = 2,   // more than kFillsGridFraction of the grid's voxels lie inside its mesh
+};
+// An organ is cut out of its scan with background around it: a mesh holding
+// this much of the grid has swallowed the background. A sphere inscribed in
+// the grid's box holds about 52% of it, so a tightly cropped round organ
+// stays below.
+constexpr double kFillsGridFraction = 0.8;
+
 struct StepReport {
   uint32_t step_index = 0;
   uint32_t active_objects = 0;
@@ -33,6 +44,8 @@ struct StepReport {
   // Vertices that moved beyond Convergence::moving_threshold() this step.
   uint32_t moving[kReportObjects] = {};
   uint64_t stage_us[kStageCount] = {};
+  uint32_t object_flags[kReportObjects] = {};
+  uint32_t flags_all = 0;  // every placed object's flags, or-ed
 };
 
 }  // namespace ffseg

@@ -38,11 +38,13 @@ inline double edge_fn(const double* pa, uint32_t ia, const double* pb, uint32_t 
 }
 
 // The toggles of the parity scan for the voxel rows (j, k) of the box
-// [lo, lo + n) (volume index space): toggle(i, j, k) for the first voxel of
+// [lo, lo + n) (volume index space): toggle(i, j, k, s) for the first voxel of
 // the row, clamped to the box, whose centre lies past the row's crossing of
 // a triangle (crossings beyond the box's end are dropped: they change no
-// voxel of it). The rows' rays and crossings are those of the whole grid, so
-// a box's mask is the grid's mask cut to the box bit for bit.
+// voxel of it); s is the sign of the triangle's area projected on (j, k),
+// which tells entries from exits of a consistently oriented mesh. The rows'
+// rays and crossings are those of the whole grid, so a box's mask is the
+// grid's mask cut to the box bit for bit.
 template <class Toggle>
 void scan_crossings(const CubeSphere& m, const double* x, const VolumeView& vol, const int64_t lo[3],
                     const int64_t n[3], Toggle&& toggle) {
@@ -76,7 +78,7 @@ void scan_crossings(const CubeSphere& m, const double* x, const VolumeView& vol,
           double first = std::floor(xi) + 1.0;
           if (first < double(lo[0])) first = double(lo[0]);
           if (!(first < double(lo[0] + n[0]))) continue;
-          toggle(int64_t(first) - lo[0], jb, kb);
+          toggle(int64_t(first) - lo[0], jb, kb, w0 > 0);
         }
     }
   }
@@ -99,7 +101,7 @@ void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol,
 
   int64_t jlo = D[1], jhi = -1, klo = D[2], khi = -1;
   const int64_t zero[3] = {0, 0, 0};
-  scan_crossings(m, x, vol, zero, D, [&](int64_t i, int64_t j, int64_t k) {
+  scan_crossings(m, x, vol, zero, D, [&](int64_t i, int64_t j, int64_t k, bool) {
     mask[i * s[0] + j * s[1] + k * s[2]] ^= 1;
     if (j < jlo) jlo = j;
     if (j > jhi) jhi = j;
@@ -121,7 +123,7 @@ int64_t rasterize_mesh_box(const CubeSphere& m, const double* x, const VolumeVie
                            const int64_t n[3], uint8_t* mask) {
   const int64_t n01 = n[0] * n[1], count = n01 * n[2];
   for (int64_t q = 0; q < count; ++q) mask[q] = 0;
-  scan_crossings(m, x, vol, lo, n, [&](int64_t i, int64_t j, int64_t k) { mask[i + n[0] * j + n01 * k] ^= 1; });
+  scan_crossings(m, x, vol, lo, n, [&](int64_t i, int64_t j, int64_t k, bool) { mask[i + n[0] * j + n01 * k] ^= 1; });
   int64_t inside_count = 0;
   for (int64_t r = 0; r < n[1] * n[2]; ++r) {
     uint8_t inside = 0;
@@ -133,6 +135,44 @@ int64_t rasterize_mesh_box(const CubeSphere& m, const double* x, const VolumeVie
     }
   }
   return inside_count;
+}
+
+int64_t count_inside_voxels(const CubeSphere& m, const double* x, const VolumeView& vol) {
+  // Along a row, the voxels inside are those past an entry less those past
+  // the exit that follows it: sum s (N - first) over the row's crossings,
+  // with s +1 for one orientation and -1 for the other. Which orientation
+  // enters depends on the mesh's and the affine's handedness, the same for
+  // every row, hence the absolute value of the total.
+  const int64_t* D = vol.dims();
+  const int64_t zero[3] = {0, 0, 0};
+  int64_t signed_count = 0;
+  scan_crossings(m, x, vol, zero, D, [&](int64_t i, int64_t, int64_t, bool s) {
+    signed_count += s ? D[0] - i : i - D[0];
+  });
+  return signed_count < 0 ? -signed_count : signed_count;
+}
+
+bool mesh_fills_grid(const CubeSphere& m, const double* x, const VolumeView& vol, double fraction) {
+  const int64_t* D = vol.dims();
+  const double limit = fraction * double(D[0]) * double(D[1]) * double(D[2]);
+  // Every voxel centre inside the mesh lies in its vertices' bounding box:
+  // when the box holds no more centres than the limit, nothing is counted.
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (uint32_t v = 0; v < m.nv; ++v) {
+    double p[3];
+    vol.world_to_index(x + 3 * size_t(v), p);
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::fmin(lo[a], p[a]);
+      hi[a] = std::fmax(hi[a], p[a]);
+    }
+  }
+  double box = 1;
+  for (int a = 0; a < 3; ++a) {
+    const double l = std::fmax(std::ceil(lo[a]), 0.0), h = std::fmin(std::floor(hi[a]), double(D[a] - 1));
+    box *= h >= l ? h - l + 1 : 0;
+  }
+  if (!(box > limit)) return false;
+  return double(count_inside_voxels(m, x, vol)) > limit;
 }
 
 }  // namespace ffseg

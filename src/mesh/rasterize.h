@@ -19,4 +19,13 @@ void rasterize_mesh(const CubeSphere& m, const double* x, const VolumeView& vol,
 int64_t rasterize_mesh_box(const CubeSphere& m, const double* x, const VolumeView& vol, const int64_t lo[3],
                            const int64_t n[3], uint8_t* mask);
 
+// The voxels rasterize_mesh sets, counted without a mask (from the signed
+// crossings of each row; equal to the parity count unless the mesh
+// intersects itself).
+int64_t count_inside_voxels(const CubeSphere& m, const double* x, const VolumeView& vol);
+
+// Whether more than fraction of the grid's voxels have their centres inside
+// the mesh; counts them only when the mesh's bounding box holds that many.
+bool mesh_fills_grid(const CubeSphere& m, const double* x, const VolumeView& vol, double fraction);
+
 }  // namespace ffseg

@@ -14,6 +14,7 @@
 
 #include "cubesphere.h"
 #include "ffseg.h"
+#include "rasterize.h"
 #include "test_util.h"
 #include "volume.h"
 
@@ -30,6 +31,24 @@ struct MeshBox {
     m.build();
   }
 };
+
+// A u8 view over vox (i fastest) with the affine A.
+ffseg::VolumeView view_of(const std::vector<uint8_t>& vox, const int64_t dims[3], const double A[16]) {
+  ffseg::VolumeDesc d{};
+  d.type = FFSEG_U8;
+  d.data = vox.data();
+  d.data_bytes = vox.size();
+  for (int a = 0; a < 3; ++a) d.dims[a] = dims[a];
+  d.strides[0] = 1;
+  d.strides[1] = dims[0];
+  d.strides[2] = dims[0] * dims[1];
+  for (int q = 0; q < 16; ++q) d.index_to_world[q] = A[q];
+  d.slope = 1;
+  ffseg::VolumeView view;
+  char msg[256];
+  REQUIRE(view.assign(d, msg, sizeof msg));
+  return view;
+}
 
 }  // namespace
 
@@ -128,4 +147,44 @@ TEST_CASE("rasterize: a sphere far larger than the grid rasterizes without overf
     // cannot resolve a 1 mm grid (they round), so only a mask of 0 and 1.
     for (uint8_t m : mask) REQUIRE((r < 1e10 ? m == 1 : m <= 1));
   }
+}
+
+TEST_CASE("rasterize: count_inside_voxels and mesh_fills_grid agree with the mask, either handedness") {
+  // A bumpy, non-convex but star-shaped mesh (no self-intersection), cut by
+  // the grid's walls, on an anisotropic grid with and without a mirrored axis.
+  MeshBox mb(16);
+  std::vector<double> x(size_t(3) * mb.m.nv);
+  const double c[3] = {14.2, 11.3, 3.1};
+  for (uint32_t v = 0; v < mb.m.nv; ++v) {
+    const double* u = mb.m.unit + 3 * size_t(v);
+    const double r = 13 * (1 + 0.3 * std::sin(3 * u[0]) * std::cos(4 * u[1]) + 0.2 * u[2] * u[2]);
+    for (int a = 0; a < 3; ++a) x[3 * v + a] = c[a] + r * u[a];
+  }
+  const int64_t dims[3] = {30, 26, 22};
+  std::vector<uint8_t> vox(size_t(dims[0] * dims[1] * dims[2]));
+  for (double flip : {1.0, -1.0}) {
+    CAPTURE(flip);
+    const double A[16] = {0.9, 0, 0, 0, 0, 1.1 * flip, 0, flip < 0 ? 26 * 1.1 : 0, 0, 0, 1.3, -4, 0, 0, 0, 1};
+    const ffseg::VolumeView view = view_of(vox, dims, A);
+    std::vector<uint8_t> mask(vox.size(), 0);
+    ffseg::rasterize_mesh(mb.m, x.data(), view, mask.data(), nullptr);
+    int64_t ones = 0;
+    for (uint8_t b : mask) ones += b;
+    const int64_t total = int64_t(vox.size());
+    MESSAGE("mask " << ones << " of " << total);
+    REQUIRE(ones > total / 10);  // the mesh cuts the grid, neither empty nor whole
+    REQUIRE(ones < total);
+    CHECK(ffseg::count_inside_voxels(mb.m, x.data(), view) == ones);
+    const double f = double(ones) / double(total);
+    CHECK(ffseg::mesh_fills_grid(mb.m, x.data(), view, f - 0.5 / double(total)));
+    CHECK_FALSE(ffseg::mesh_fills_grid(mb.m, x.data(), view, f + 0.5 / double(total)));
+  }
+  // A mesh whose bounding box holds too few voxel centres is never counted
+  // (a mesh beside the grid, fraction 0: still false).
+  std::vector<double> away(x);
+  for (size_t q = 0; q < away.size(); q += 3) away[q] += 500;
+  const double I[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  const ffseg::VolumeView view = view_of(vox, dims, I);
+  CHECK(ffseg::count_inside_voxels(mb.m, away.data(), view) == 0);
+  CHECK_FALSE(ffseg::mesh_fills_grid(mb.m, away.data(), view, 0.0));
 }

@@ -971,6 +971,19 @@ TEST_CASE("cli: a run that finds no object exits 5 with a message and writes not
     CHECK(r.err.find(c.says) != std::string::npos);
     CHECK_FALSE(fs::exists(out));
   }
+  // An object filling the whole grid: the mesh grows from inside to the
+  // walls, meeting a boundary there, and holds every voxel.
+  Balls full = make_balls({}, {});
+  std::fill(full.image.data.begin(), full.image.data.end(), uint8_t(1));
+  write(s / "full.nii.gz", full.image);
+  const Run f = ffseg(s, "segment " + (s / "full.nii.gz") +
+                             " --target binary --sphere 4,27,12,4 --mesh-resolution 6 --max-steps 200 --quiet --out " +
+                             (s / "o_full"));
+  INFO("stderr: " << f.err);
+  CHECK(f.code == 5);
+  CHECK(f.err.find("% of the volume grid") != std::string::npos);
+  CHECK(f.err.find("no vertex found") == std::string::npos);
+  CHECK_FALSE(fs::exists(s / "o_full"));
   // The ball itself from inside: found, exit 0.
   CHECK(ffseg(s, "segment " + (s / "ball.nii.gz") + " --target binary --sphere 4,27,12,4 --mesh-resolution 6 --max-steps 20 --quiet --out " + (s / "ok")).code == 0);
 }

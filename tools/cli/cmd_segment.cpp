@@ -132,9 +132,6 @@ std::string world_extent(const ffseg_tools::NiftiImage& img) {
   return s + " mm";
 }
 
-// An object holding more than this share of the grid's voxels is not an organ.
-constexpr double kMostOfTheGrid = 0.8;
-
 const char* kStageNames[FFSEG_STAGE_COUNT] = {"search",   "flips",    "diffusion", "intersection",
                                               "assembly", "factor",   "solve",     "features",
                                               "guard",    "regions"};
@@ -336,7 +333,6 @@ int cmd_segment(int argc, char** argv) {
   bool converged = false;
   int64_t steps = 0;
   std::vector<uint32_t> border_vertices;  // at the last step each object moved
-  std::vector<uint8_t> found_boundary;    // some vertex of the object found a boundary at some step
   auto t_step0 = std::chrono::steady_clock::now();
   for (int pass = 0;; ++pass) {
     // ---- engine -------------------------------------------------------------------
@@ -408,8 +404,6 @@ int cmd_segment(int argc, char** argv) {
     converged = false;
     steps = 0;
     border_vertices.assign(nobj, 0);
-    found_boundary.assign(nobj, 0);
-    for (uint32_t k = FFSEG_REPORT_OBJECTS; k < nobj; ++k) found_boundary[k] = 1;  // beyond the report: not known
     t_step0 = std::chrono::steady_clock::now();
     {
       Progress progress(!quiet, max_steps, nobj);
@@ -428,14 +422,15 @@ int cmd_segment(int argc, char** argv) {
         for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k) {
           if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0)
             border_vertices[k] = info.border_vertices[k];
-          if (info.vertices_with_target[k] > 0) found_boundary[k] = 1;
         }
         converged = st == FFSEG_CONVERGED;
-        progress.step(info, seconds_since(t_step0), converged || steps == max_steps);
-        if (converged) break;
+        const bool at_rest = converged || st == FFSEG_DEGENERATE;
+        progress.step(info, seconds_since(t_step0), at_rest || steps == max_steps);
+        if (at_rest) break;
       }
     }
-    if (!auto_resolution || pass > 0) break;
+    // A finer mesh would not make a segmentation of a result that is none.
+    if (!auto_resolution || pass > 0 || info.flags_all != 0) break;
     // How fine a mesh the surfaces ask for.
     wanted_resolution = kFirstResolution;
     for (uint32_t k = 0; k < nobj; ++k) {
@@ -468,19 +463,25 @@ int cmd_segment(int argc, char** argv) {
     res[k].border_vertices = border_vertices[k];
     shared_voxels += res[k].shared_voxels;
   }
-  // A run that found nothing is not a segmentation: no vertex of an object
-  // ever met a boundary (its mesh stayed the sphere), or the object fills
-  // most of the grid (a sphere around the whole scan: every voxel labelled).
-  // Exit 5, nothing written.
-  for (uint32_t k = 0; k < nobj; ++k) {
+  // A run that found nothing is not a segmentation, by the engine's flags
+  // (FFSEG_DEGENERATE at rest; as of the last step when stopped at
+  // --max-steps): no vertex of an object ever met a boundary (its mesh stayed
+  // the sphere), or the object fills most of the grid (a sphere around the
+  // whole scan: every voxel labelled). Exit 5, nothing written.
+  for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k) {
     const std::string who = "object " + std::to_string(k + 1) + " (" + names[k] + ")";
-    if (!found_boundary[k])
+    if (info.object_flags[k] & FFSEG_OBJECT_NO_BOUNDARY)
       fail(kExitNoResult, who + ": no vertex found a boundary along its normal in " + std::to_string(steps) +
                               " steps; the sphere is not inside or near an object of the target (check --sphere and --target)");
-    if (double(res[k].voxels) > kMostOfTheGrid * double(nvox))
+    if (info.object_flags[k] & FFSEG_OBJECT_FILLS_GRID)
       fail(kExitNoResult, who + " fills " + std::to_string(int(100.0 * double(res[k].voxels) / double(nvox) + 0.5)) +
                               "% of the volume grid: no organ boundary held it (is the sphere larger than the organ?)");
   }
+  if (info.flags_all != 0)  // an object past the engine's per-object report
+    fail(kExitNoResult, "one of objects " + std::to_string(FFSEG_REPORT_OBJECTS + 1) + ".." + std::to_string(nobj) +
+                            (info.flags_all & FFSEG_OBJECT_NO_BOUNDARY
+                                 ? ": no vertex found a boundary along its normal (check --sphere and --target)"
+                                 : " fills most of the volume grid: no organ boundary held it"));
   ffseg_tools::NiftiImage regions_map;
   if (!regions_path.empty()) regions_map = region_label_map(ws.e, img, labels);
   const double vox_mm3 = voxel_volume_mm3(img);

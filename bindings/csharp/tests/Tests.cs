@@ -193,6 +193,24 @@ static class Tests {
     }
   }
 
+  static void EmptyBackgroundIsDegenerate() {
+    using (var e = new Engine(Small(6))) {
+      Params p = Params.Default();
+      p.TargetMode = TargetMode.Binary;
+      e.SetParams(p);
+      e.SetVolume(new byte[24 * 24 * 24], new long[] {24, 24, 24});
+      e.InitSphere(0, new double[] {12, 12, 12}, 4);
+      bool converged;
+      StepInfo last = e.Run(100, out converged);
+      Assert(!converged && e.LastStatus == Status.Degenerate && last.StepIndex < 100,
+             "degenerate at rest, status " + e.LastStatus + " after " + last.StepIndex + " steps");
+      unsafe {
+        Assert(last.ObjectFlags[0] == Status.ObjectNoBoundary && last.FlagsAll == Status.ObjectNoBoundary,
+               "flags " + last.ObjectFlags[0] + ", all " + last.FlagsAll);
+      }
+    }
+  }
+
   static void FailedSetVolumeKeepsThePreviousOnePinned() {
     using (var e = new Engine(Small(8))) {
       var good = new byte[20 * 20 * 20];
@@ -268,6 +286,7 @@ static class Tests {
       new KeyValuePair<string, Action>("a 9-value affine is refused", ShortAffineIsRefusedBeforeTheLibrarySeesIt),
       new KeyValuePair<string, Action>("round trip", RoundTrip),
       new KeyValuePair<string, Action>("a sphere grows onto an ellipsoid", SphereGrowsOntoAnEllipsoid),
+      new KeyValuePair<string, Action>("a sphere in empty background is degenerate", EmptyBackgroundIsDegenerate),
       new KeyValuePair<string, Action>("a failed SetVolume keeps the previous volume pinned", FailedSetVolumeKeepsThePreviousOnePinned),
       new KeyValuePair<string, Action>("Dispose releases everything", DisposeReleasesEverything),
       new KeyValuePair<string, Action>("two objects get disjoint bounding regions", TwoObjectsGetDisjointRegions),

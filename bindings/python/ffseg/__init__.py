@@ -20,15 +20,17 @@ message.
 import ctypes as _C
 import ctypes.util as _cutil
 import os as _os
+import warnings as _warnings
 
 import numpy as _np
 
 from . import _abi
-from ._abi import (CONVERGED, OK, STAGE_NAMES, TARGET_BINARY,  # noqa: F401
-                   TARGET_INTENSITY)
+from ._abi import (CONVERGED, DEGENERATE, OBJECT_FILLS_GRID, OBJECT_NO_BOUNDARY,  # noqa: F401
+                   OK, STAGE_NAMES, TARGET_BINARY, TARGET_INTENSITY)
 
 __all__ = ["Engine", "Error", "VolumeError", "StepInfo", "segment", "library_path", "version",
-           "param_names", "TARGET_BINARY", "TARGET_INTENSITY", "STAGE_NAMES"]
+           "param_names", "TARGET_BINARY", "TARGET_INTENSITY", "STAGE_NAMES", "DEGENERATE",
+           "OBJECT_NO_BOUNDARY", "OBJECT_FILLS_GRID"]
 
 
 class Error(Exception):
@@ -184,16 +186,18 @@ def _volume_descriptor(array, affine, rescale_slope, rescale_intercept):
 class StepInfo:
     """What one ffseg_step reported: step_index, active_objects, per-object
     lists (mean_displacement_mm, vertices_with_target, flips_avoided,
-    intersections_avoided, border_vertices; one entry per object, at most 16)
-    and stage_us, a dict of microseconds by stage name."""
+    intersections_avoided, border_vertices, object_flags; one entry per object,
+    at most 16), flags_all (every object's OBJECT_* flags or-ed; non-zero: some
+    result is no segmentation) and stage_us, a dict of microseconds by stage name."""
 
     def __init__(self, raw, objects):
         n = min(objects, _abi.REPORT_OBJECTS)
         self.step_index = raw.step_index
         self.active_objects = raw.active_objects
         for f in ("mean_displacement_mm", "vertices_with_target", "flips_avoided",
-                  "intersections_avoided", "border_vertices"):
+                  "intersections_avoided", "border_vertices", "object_flags"):
             setattr(self, f, list(getattr(raw, f))[:n])
+        self.flags_all = int(raw.flags_all)
         self.stage_us = {name: int(raw.stage_us[i]) for i, name in enumerate(STAGE_NAMES)}
 
     def __repr__(self):
@@ -233,6 +237,7 @@ class Engine:
         self._volume = None  # the array the engine reads: kept alive here
         self._shape = None
         self.last_step_info = None
+        self.last_status = None  # the last step's status: OK, CONVERGED or DEGENERATE
 
     # lifetime
     def close(self):
@@ -332,12 +337,16 @@ class Engine:
 
     def step(self):
         """One deformation step of every placed object; True once every object
-        has converged. The step's report is in .last_step_info (StepInfo)."""
+        has come to rest: converged, or DEGENERATE (.last_status), when some
+        object's result is no segmentation (.last_step_info.object_flags:
+        OBJECT_NO_BOUNDARY, OBJECT_FILLS_GRID). The step's report is in
+        .last_step_info (StepInfo)."""
         raw = _abi.StepInfo()
         raw.struct_size = _C.sizeof(raw)
         st = _check(_lib.ffseg_step(self._handle(), _C.byref(raw)), "ffseg_step", self._e)
         self.last_step_info = StepInfo(raw, self.config["max_objects"])
-        return st == CONVERGED
+        self.last_status = st
+        return st in (CONVERGED, DEGENERATE)
 
     def extract_mesh(self, obj):
         """(vertices, triangles): (N, 3) float32 world mm and (M, 3) uint32,
@@ -418,6 +427,11 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
         for _ in range(int(max_steps)):
             if e.step():
                 break
+        flags = getattr(e, "last_step_info", None)
+        if flags is not None and flags.flags_all:
+            _warnings.warn("ffseg.segment: some result is no segmentation (object_flags "
+                           f"{flags.object_flags}: 1 = no vertex ever found a boundary, "
+                           "2 = the object fills most of the grid)", RuntimeWarning, stacklevel=2)
         masks = [e.rasterize(k) for k in range(len(spheres))]
         if return_meshes:
             return masks, [e.extract_mesh(k) for k in range(len(spheres))]

@@ -11,6 +11,9 @@ import ctypes as C
 
 OK = 0
 CONVERGED = 1
+DEGENERATE = 2  # at rest, but some object's result is no segmentation (object_flags)
+OBJECT_NO_BOUNDARY = 1
+OBJECT_FILLS_GRID = 2
 
 STATUS_NAMES = {
     -1: "INVALID_ARGUMENT", -2: "NULL_POINTER", -3: "WORKSPACE_TOO_SMALL",
@@ -101,6 +104,9 @@ class StepInfo(C.Structure):
         ("intersections_avoided", C.c_uint32 * REPORT_OBJECTS),
         ("border_vertices", C.c_uint32 * REPORT_OBJECTS),
         ("stage_us", C.c_uint64 * STAGE_COUNT),
+        ("object_flags", C.c_uint32 * REPORT_OBJECTS),
+        ("flags_all", C.c_uint32),
+        ("reserved1", C.c_uint32),
     ]
 
 

@@ -43,5 +43,8 @@ def test_constants_match_the_header():
     assert c["FFSEG_TARGET_BINARY"] == _abi.TARGET_BINARY
     assert c["FFSEG_TARGET_INTENSITY"] == _abi.TARGET_INTENSITY
     assert c["FFSEG_CONVERGED"] == _abi.CONVERGED
+    assert c["FFSEG_DEGENERATE"] == _abi.DEGENERATE
+    assert c["FFSEG_OBJECT_NO_BOUNDARY"] == _abi.OBJECT_NO_BOUNDARY
+    assert c["FFSEG_OBJECT_FILLS_GRID"] == _abi.OBJECT_FILLS_GRID
     assert [c[f"FFSEG_{t}"] for t in ("U8", "I16", "U16", "I32", "F32", "F64")] == \
         [_abi.U8, _abi.I16, _abi.U16, _abi.I32, _abi.F32, _abi.F64]

@@ -189,6 +189,28 @@ def test_segment_several_objects_and_intensity_target():
     assert not np.logical_and(*masks).any()
 
 
+def test_a_run_that_finds_nothing_is_degenerate_not_converged():
+    empty = np.zeros((24, 24, 24), dtype=np.uint8)
+    with ffseg.Engine(max_objects=1, mesh_resolution=6) as e:
+        e.set_params(target_mode="binary")
+        e.set_volume(empty, affine())
+        e.init_sphere(0, (12.0, 12.0, 12.0), 4.0)
+        grow(e)
+        assert e.last_status == ffseg.DEGENERATE
+        assert e.last_step_info.object_flags == [ffseg.OBJECT_NO_BOUNDARY]
+        assert e.last_step_info.flags_all == ffseg.OBJECT_NO_BOUNDARY
+    with pytest.warns(RuntimeWarning, match="no segmentation"):
+        binary_run(empty, affine(), (12, 12, 12), 4.0, n=6)
+    # The ball from inside: converged, no flag, no warning.
+    with ffseg.Engine(max_objects=1, mesh_resolution=8) as e:
+        e.set_params(target_mode="binary")
+        e.set_volume(ball(), affine())
+        e.init_sphere(0, (20.0, 17.0, 15.5), 3.0)
+        grow(e)
+        assert e.last_status == ffseg.CONVERGED
+        assert e.last_step_info.flags_all == 0
+
+
 def test_region_mask_of_two_objects_in_one_bar():
     # A binary bar along i with one sphere near each end: after a step the two
     # bounding regions split the bar, never share a voxel, and each holds its

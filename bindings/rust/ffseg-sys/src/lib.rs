@@ -12,13 +12,16 @@ use std::os::raw::c_char;
 pub type ffseg_status = i32;
 
 pub const FFSEG_VERSION_MAJOR: u32 = 0;
-pub const FFSEG_VERSION_MINOR: u32 = 3;
+pub const FFSEG_VERSION_MINOR: u32 = 4;
 pub const FFSEG_VERSION_PATCH: u32 = 0;
 pub const FFSEG_VERSION_NUMBER: u32 =
     FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH;
 
 pub const FFSEG_OK: ffseg_status = 0;
 pub const FFSEG_CONVERGED: ffseg_status = 1;
+pub const FFSEG_DEGENERATE: ffseg_status = 2;
+pub const FFSEG_OBJECT_NO_BOUNDARY: u32 = 1;
+pub const FFSEG_OBJECT_FILLS_GRID: u32 = 2;
 pub const FFSEG_ERR_INVALID_ARGUMENT: ffseg_status = -1;
 pub const FFSEG_ERR_NULL_POINTER: ffseg_status = -2;
 pub const FFSEG_ERR_WORKSPACE_TOO_SMALL: ffseg_status = -3;
@@ -136,6 +139,9 @@ pub struct ffseg_step_info {
     pub intersections_avoided: [u32; FFSEG_REPORT_OBJECTS],
     pub border_vertices: [u32; FFSEG_REPORT_OBJECTS],
     pub stage_us: [u64; FFSEG_STAGE_COUNT],
+    pub object_flags: [u32; FFSEG_REPORT_OBJECTS],
+    pub flags_all: u32,
+    pub reserved1: u32,
 }
 
 impl Default for ffseg_config {

@@ -254,6 +254,9 @@ pub struct Mesh {
 pub struct Step {
     /// Every object has converged (`FFSEG_CONVERGED`).
     pub converged: bool,
+    /// Every object has come to rest but some result is no segmentation
+    /// (`FFSEG_DEGENERATE`; which and why: `info.object_flags`).
+    pub degenerate: bool,
     pub info: StepInfo,
 }
 
@@ -307,13 +310,14 @@ impl<'ws, 'vol> Engine<'ws, 'vol> {
     pub fn step(&mut self) -> Result<Step> {
         let mut info = StepInfo::default();
         let st = self.check(unsafe { sys::ffseg_step(self.raw.as_ptr(), &mut info) })?;
-        Ok(Step { converged: st == sys::FFSEG_CONVERGED, info })
+        Ok(Step { converged: st == sys::FFSEG_CONVERGED, degenerate: st == sys::FFSEG_DEGENERATE, info })
     }
 
-    /// Steps until every object has converged or `max_steps` steps were taken.
+    /// Steps until every object has come to rest (converged or degenerate)
+    /// or `max_steps` steps were taken.
     pub fn run(&mut self, max_steps: u32) -> Result<Step> {
         let mut last = self.step()?;
-        while !last.converged && last.info.step_index < max_steps {
+        while !last.converged && !last.degenerate && last.info.step_index < max_steps {
             last = self.step()?;
         }
         Ok(last)

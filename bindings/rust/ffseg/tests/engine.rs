@@ -113,6 +113,24 @@ fn a_small_sphere_grows_onto_an_ellipsoid() {
 }
 
 #[test]
+fn a_sphere_in_empty_background_comes_to_rest_degenerate() {
+    let dims = [24usize, 24, 24];
+    let empty = vec![0u8; dims[0] * dims[1] * dims[2]];
+    let mut ws = Workspace::new(&small_config(6)).unwrap();
+    let mut e = Engine::new(&mut ws).unwrap();
+    let mut p = Params::default();
+    p.target_mode = sys::FFSEG_TARGET_BINARY;
+    e.set_params(&p).unwrap();
+    e.set_volume(&Volume::new(&empty, dims)).unwrap();
+    e.init_sphere(0, [12.0, 12.0, 12.0], 4.0).unwrap();
+    let last = e.run(100).unwrap();
+    assert!(last.degenerate && !last.converged, "not at rest as degenerate after {} steps", last.info.step_index);
+    assert!(last.info.step_index < 100, "run() did not stop at rest");
+    assert_eq!(last.info.object_flags[0], sys::FFSEG_OBJECT_NO_BOUNDARY);
+    assert_eq!(last.info.flags_all, sys::FFSEG_OBJECT_NO_BOUNDARY);
+}
+
+#[test]
 fn refused_calls_leave_the_engine_usable() {
     let voxels = vec![1u8; 20 * 20 * 20];
     let mut ws = Workspace::new(&small_config(8)).unwrap();
