@@ -3,6 +3,8 @@
 // never share a voxel.
 #include <doctest/doctest.h>
 
+#include "support/u8_view.h"
+
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -95,19 +97,7 @@ TEST_CASE("regions: rasterising into a box gives the grid's mask cut to the box"
   }
   const int64_t dims[3] = {26, 22, 20};
   std::vector<uint8_t> vox(size_t(dims[0] * dims[1] * dims[2]));
-  ffseg::VolumeDesc d{};
-  d.type = FFSEG_U8;
-  d.data = vox.data();
-  d.data_bytes = vox.size();
-  for (int a = 0; a < 3; ++a) d.dims[a] = dims[a];
-  d.strides[0] = 1;
-  d.strides[1] = dims[0];
-  d.strides[2] = dims[0] * dims[1];
-  for (int q = 0; q < 16; ++q) d.index_to_world[q] = kIdentity[q];
-  d.slope = 1;
-  ffseg::VolumeView view;
-  char msg[256];
-  REQUIRE(view.assign(d, msg, sizeof msg));
+  const ffseg::VolumeView view = ffseg_test::u8_view(vox, dims, kIdentity);
   std::vector<uint8_t> full(vox.size());
   ffseg::rasterize_mesh(sb.m, x.data(), view, full.data(), nullptr);
   size_t inside = 0;

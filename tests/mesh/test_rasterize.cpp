@@ -1,6 +1,8 @@
 // Sphere placement and rasterisation through the C API (src/mesh/rasterize.h).
 #include <doctest/doctest.h>
 
+#include "support/u8_view.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -32,23 +34,7 @@ struct MeshBox {
   }
 };
 
-// A u8 view over vox (i fastest) with the affine A.
-ffseg::VolumeView view_of(const std::vector<uint8_t>& vox, const int64_t dims[3], const double A[16]) {
-  ffseg::VolumeDesc d{};
-  d.type = FFSEG_U8;
-  d.data = vox.data();
-  d.data_bytes = vox.size();
-  for (int a = 0; a < 3; ++a) d.dims[a] = dims[a];
-  d.strides[0] = 1;
-  d.strides[1] = dims[0];
-  d.strides[2] = dims[0] * dims[1];
-  for (int q = 0; q < 16; ++q) d.index_to_world[q] = A[q];
-  d.slope = 1;
-  ffseg::VolumeView view;
-  char msg[256];
-  REQUIRE(view.assign(d, msg, sizeof msg));
-  return view;
-}
+using ffseg_test::u8_view;
 
 }  // namespace
 
@@ -165,7 +151,7 @@ TEST_CASE("rasterize: count_inside_voxels and mesh_fills_grid agree with the mas
   for (double flip : {1.0, -1.0}) {
     CAPTURE(flip);
     const double A[16] = {0.9, 0, 0, 0, 0, 1.1 * flip, 0, flip < 0 ? 26 * 1.1 : 0, 0, 0, 1.3, -4, 0, 0, 0, 1};
-    const ffseg::VolumeView view = view_of(vox, dims, A);
+    const ffseg::VolumeView view = u8_view(vox, dims, A);
     std::vector<uint8_t> mask(vox.size(), 0);
     ffseg::rasterize_mesh(mb.m, x.data(), view, mask.data(), nullptr);
     int64_t ones = 0;
@@ -184,7 +170,7 @@ TEST_CASE("rasterize: count_inside_voxels and mesh_fills_grid agree with the mas
   std::vector<double> away(x);
   for (size_t q = 0; q < away.size(); q += 3) away[q] += 500;
   const double I[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-  const ffseg::VolumeView view = view_of(vox, dims, I);
+  const ffseg::VolumeView view = u8_view(vox, dims, I);
   CHECK(ffseg::count_inside_voxels(mb.m, away.data(), view) == 0);
   CHECK_FALSE(ffseg::mesh_fills_grid(mb.m, away.data(), view, 0.0));
 }
