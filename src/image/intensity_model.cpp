@@ -80,8 +80,15 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     }
     const double g = r * std::sqrt(row[0] * row[0] + row[1] * row[1] + row[2] * row[2]);
     const double l = std::ceil(pc[a] - g), h = std::floor(pc[a] + g) + 1;
-    lo[a] = l < double(roi.data_lo()[a]) ? roi.data_lo()[a] : int64_t(l);
-    hi[a] = h > double(roi.data_hi()[a]) ? roi.data_hi()[a] : int64_t(h);
+    // Compared before any conversion: an extreme affine can make the centre
+    // or the extent infinite, and l or h NaN or beyond int64_t.
+    const double dlo = double(roi.data_lo()[a]), dhi = double(roi.data_hi()[a]);
+    if (!(l < dhi && h > dlo)) {
+      say(msg, msg_len, "intensity model: the sphere does not meet the smoothed region");
+      return ModelStatus::no_samples;
+    }
+    lo[a] = l < dlo ? roi.data_lo()[a] : int64_t(l);
+    hi[a] = h > dhi ? roi.data_hi()[a] : int64_t(h);
     if (lo[a] >= hi[a]) {
       say(msg, msg_len, "intensity model: the sphere does not meet the smoothed region");
       return ModelStatus::no_samples;

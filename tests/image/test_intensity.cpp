@@ -296,6 +296,29 @@ TEST_CASE("smoothing, intensity: non-finite voxels neither spread nor reach the 
   CHECK(model.component(0).mean == doctest::Approx(2));
 }
 
+TEST_CASE("intensity: a finite sphere whose index box overflows is refused, not converted") {
+  // Centre and radius near DBL_MAX: in index units both are infinite, the
+  // box's bounds NaN (inf - inf). Found by fuzz_calls' soak (UBSan: NaN
+  // converted to int64_t); the box is now compared before any conversion.
+  TestVolume<float> v = edge_volume(0, 5);
+  v.finish(VoxelType::F32);
+  SmoothedRoi roi;
+  Carved mem([&](Arena& a) { roi.carve(a, 64 * 64 * 12, kCpu); });
+  const int64_t lo[3] = {0, 0, 0}, hi[3] = {64, 64, 12};
+  REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
+  IntensityModel model;
+  Carved mm([&](Arena& a) { model.carve(a, 4096, kCpu); });
+  char msg[160] = "";
+  for (double s : {1.0, -1.0}) {
+    const double c[3] = {s * 1.7e308, 7, 25};
+    CHECK(model.fit(roi, c, 1.7e308, IntensityModelSettings(), msg, sizeof msg) == ModelStatus::no_samples);
+    CHECK(std::string(msg).find("does not meet") != std::string::npos);
+    CHECK_FALSE(model.valid());
+  }
+  const double c[3] = {12 * 0.7, 10 * 0.7, 5 * 5.0};
+  CHECK(model.fit(roi, c, 6, IntensityModelSettings()) == ModelStatus::ok);  // the model still fits afterwards
+}
+
 TEST_CASE("smoothing, intensity: measuring pass and real pass carve the same bytes") {
   for (int64_t maxv : {int64_t(1), int64_t(1000), int64_t(123457), int64_t(1) << 22}) {
     for (uint32_t cap : {1u, 4096u, 65536u}) {
