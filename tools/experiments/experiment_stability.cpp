@@ -3,7 +3,8 @@
 // 0.6x, 1x and 1.5x its radius and moved by 1 mm along each axis: Dice of
 // each against AAL and the pairwise Dice between the six results.
 //
-//   FFSEG_N=12 build/experiment_stability [labels, e.g. 73,74]
+//   FFSEG_N=12 [FFSEG_ONLY=73,74] build/experiment_stability
+// (parameters from the environment as in experiment_colin27: tune_from_env)
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -42,6 +43,7 @@ TEST_CASE("stability experiment") {
       o.radius_scale = scales[k];
       o.shift_mm = shifts[k];
       o.mask_out = &masks[k];
+      o.tune = tune_from_env;
       const StructureResult r = segment_structure(t1, aal, st.first, st.second, n, 100, o);
       char b[64];
       std::snprintf(b, sizeof b, "%s%.3f (%.1f ml, %d steps)", k ? " / " : "", r.m.dice, r.m.vol_a_ml, r.steps);
