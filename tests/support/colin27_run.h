@@ -39,11 +39,6 @@ struct StructureRunOptions {
   std::vector<uint8_t>* mask_out = nullptr;  // the result's label mask on the AAL grid
 };
 
-// Experiments only: the parameters named by FFSEG_SIGF, FFSEG_GAMMA, FFSEG_SR,
-// FFSEG_ALPHA, FFSEG_SMI, FFSEG_NB, FFSEG_DIFF, FFSEG_LL, FFSEG_LU, FFSEG_LP,
-// FFSEG_TAU, FFSEG_CONV, FFSEG_PVS replace the defaults (a StructureRunOptions::tune).
-void tune_from_env(ffseg_params& p);
-
 ffseg_volume volume_of(const ffseg_tools::NiftiImage& img);
 
 // The protocol sphere of a label's mask (truth, on t1's grid): centre c (mm)

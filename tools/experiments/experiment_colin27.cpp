@@ -26,6 +26,7 @@
 #include <utility>
 
 #include "support/colin27_run.h"
+#include "tune_from_env.h"
 
 using namespace ffseg_test;
 
@@ -41,7 +42,7 @@ StructureRunOptions from_env() {
   if (const char* e = std::getenv("FFSEG_SHIFT")) {
     if (std::sscanf(e, "%lf,%lf,%lf", &shift[0], &shift[1], &shift[2]) == 3) o.shift_mm = shift;
   }
-  o.tune = tune_from_env;
+  o.tune = ffseg_experiments::tune_from_env;
 
   return o;
 }

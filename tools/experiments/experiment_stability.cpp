@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "support/colin27_run.h"
+#include "tune_from_env.h"
 #include "support/phantoms.h"
 
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
@@ -43,7 +44,7 @@ TEST_CASE("stability experiment") {
       o.radius_scale = scales[k];
       o.shift_mm = shifts[k];
       o.mask_out = &masks[k];
-      o.tune = tune_from_env;
+      o.tune = ffseg_experiments::tune_from_env;
       const StructureResult r = segment_structure(t1, aal, st.first, st.second, n, 100, o);
       char b[64];
       std::snprintf(b, sizeof b, "%s%.3f (%.1f ml, %d steps)", k ? " / " : "", r.m.dice, r.m.vol_a_ml, r.steps);
