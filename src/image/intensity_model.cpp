@@ -139,8 +139,23 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     say(msg, msg_len, "intensity model: the region's noise or intensity range is not finite (grey levels beyond float range)");
     return ModelStatus::not_finite;
   }
+  // Trimming (header note): the samples within trim_sds robust sd of their
+  // median, a contiguous run of the sorted buffer.
+  if (!(std::isfinite(s.trim_sds) && s.trim_sds >= 0)) {
+    say(msg, msg_len, "intensity model: trim_sds must be finite and >= 0");
+    return ModelStatus::bad_settings;
+  }
+  uint32_t first = 0, last = n;
+  if (s.trim_sds > 0 && n >= 4) {
+    auto quantile = [&](double q) { return double(samples_[uint32_t(q * double(n - 1) + 0.5)]); };
+    const double median = quantile(0.5);
+    const double spread = std::max((quantile(0.75) - quantile(0.25)) / 1.349, floor);
+    const double keep_lo = median - s.trim_sds * spread, keep_hi = median + s.trim_sds * spread;
+    while (first < n && double(samples_[first]) < keep_lo) ++first;
+    while (last > first && double(samples_[last - 1]) > keep_hi) --last;
+  }
   // The peak and the table once, when the competition is known.
-  const ModelStatus st = fit_object(samples_, n, floor, s, msg, msg_len);
+  const ModelStatus st = fit_object(samples_ + first, last - first, floor, s, msg, msg_len);
   if (st != ModelStatus::ok) return st;
   if (!s.scene_competitors) {
     normalise_and_tabulate();

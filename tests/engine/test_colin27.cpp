@@ -255,8 +255,12 @@ TEST_CASE("chapter 6 on Colin27: the eight deep nuclei together never overlap an
 
 TEST_CASE("chapter 5 on Colin27: the result depends little on the seed (0.6x, 1x, 1.5x the radius, 1 mm shifts)") {
   // Issue 19 asks pairwise Dice >= 0.85 between the six seeds of every
-  // structure; not reached. Measured (n = 12) since the statistics became
-  // independent of the storage (box_lattice.h): 0.854, 0.895, 0.873, 0.724,
+  // structure; not reached. Measured (n = 12) since the sphere's samples are
+  // trimmed to its main classes (intensity_model.h): mean pairwise Dice
+  // 0.871, 0.899, 0.874, 0.738, 0.957, 0.937, 0.901, 0.817 (mean 0.874, worst
+  // pair 0.556, thalamus R: the scene fit merges white matter into the
+  // object's class from the +y and +z seeds). Before the trim, since the
+  // statistics became independent of the storage (box_lattice.h): 0.854, 0.895, 0.873, 0.724,
   // 0.843, 0.857, 0.897, 0.804 (mean 0.843, worst pair 0.556). Before: mean pairwise Dice per
   // structure 0.872, 0.902, 0.868, 0.862, 0.831, 0.851, 0.901, 0.731 (mean
   // 0.852, worst pair 0.472, hippocampus R); with the statistics box alone
@@ -293,12 +297,12 @@ TEST_CASE("chapter 5 on Colin27: the result depends little on the seed (0.6x, 1x
         worst = std::min(worst, d);
       }
     std::printf("seed stability, AAL %d: mean pairwise Dice %.3f\n", label, mean);
-    CHECK(mean >= 0.68);
+    CHECK(mean >= 0.70);
     mean_of_means += mean / 8;
   }
   std::printf("seed stability: mean %.3f, worst pair %.3f\n", mean_of_means, worst);
-  CHECK(mean_of_means >= 0.81);
-  CHECK(worst >= 0.40);
+  CHECK(mean_of_means >= 0.85);
+  CHECK(worst >= 0.50);
 }
 
 TEST_CASE("chapter 5 on Colin27: the result does not depend on how the volume is stored (flips, permuted axes, type)") {

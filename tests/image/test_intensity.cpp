@@ -718,6 +718,86 @@ TEST_CASE("intensity: on near noise-free data the variance floor lets the search
   CHECK(face_value < nv / 2);
 }
 
+TEST_CASE("intensity: the sphere's samples are trimmed to its main classes: a clipped neighbour's rim is left out") {
+  // A u8 organ (100) beside a brighter neighbour (160) at i >= 37, dark (30)
+  // beyond i < 12; noise sigma 0.5, 1 mm voxels. The 6 mm seed sphere at
+  // i = 32 clips the neighbour: about 4% of its voxels read 160.
+  // 'split' gives the organ two classes inside the sphere (100 for i < 32,
+  // 130 beyond, about half each): both must survive the trim.
+  for (bool split : {false, true}) {
+    CAPTURE(split);
+    TestVolume<uint8_t> v(64, 64, 64, 1, 1, 1);
+    REQUIRE(fill_u8_around_centre(v, 11, [&](double, int64_t i) {
+      return i >= 37 ? 160 : (i < 12 ? 30 : (split && i >= 32 ? 130 : 100));
+    }));
+    SmoothedRoi roi;
+    IntensityModel model;
+    Carved mem([&](Arena& a) {
+      roi.carve(a, int64_t(1) << 19, kCpu);
+      model.carve(a, IntensityModel::kDefaultSamples, kCpu);
+    });
+    const double c[3] = {32, 32, 32};
+    int64_t lo[3], hi[3];
+    roi_box_for_ball(v.view, c, 28, lo, hi);
+    REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
+    IntensityModelSettings ms;
+    ms.scene_competitors = false;  // the object model alone: the trim is what is tested
+    auto widest_sd = [&]() {
+      double w = 0;
+      for (uint32_t i = 0; i < model.components(); ++i) w = std::max(w, std::sqrt(model.component(i).var));
+      return w;
+    };
+    REQUIRE(model.fit(roi, c, 6, ms) == ModelStatus::ok);
+    const uint32_t trimmed_n = model.sample_count();
+    const double trimmed_sd = widest_sd(), floor = model.sigma_floor();
+    const double g_rim = model.g(160), g100 = model.g(100), g120 = model.g(120), g130 = model.g(130);
+    MESSAGE("trimmed: " << trimmed_n << " samples, " << model.components() << " classes, widest sd " << trimmed_sd
+                        << " (floor " << floor << "), g(100) " << g100 << " g(120) " << g120 << " g(130) " << g130 << " g(160) " << g_rim);
+    ms.trim_sds = 0;  // every sample of the sphere
+    REQUIRE(model.fit(roi, c, 6, ms) == ModelStatus::ok);
+    const uint32_t all_n = model.sample_count();
+    const double all_sd = widest_sd();
+    MESSAGE("untrimmed: " << all_n << " samples, " << model.components() << " classes, widest sd " << all_sd
+                          << ", g(120) " << model.g(120) << " g(160) " << model.g(160));
+    CHECK(g100 > 0.5);
+    if (split) {
+      // Two classes of half the sphere each: the quartiles span both, the
+      // trim window (median +- 2.5 robust sd) is wide and keeps every
+      // sample, the rim included (binning's N_m leaves it out of the classes).
+      CHECK(g130 > 0.5);
+      CHECK(trimmed_n == all_n);
+      continue;
+    }
+    // The rim, and only the rim, went: a few percent of the samples.
+    CHECK(all_n > trimmed_n);
+    CHECK(double(all_n - trimmed_n) < 0.08 * all_n);
+    CHECK(g_rim < 1e-5);
+    CHECK(trimmed_sd <= 1.05 * floor);  // no class stretched towards the neighbour
+    CHECK(all_sd > 1.5 * floor);        // without the trim the rim widens the model
+    // At the engine's Gamma (0.2) 120 is not organ; the untrimmed model,
+    // stretched by the rim, would take it (a leak of 20 grey levels).
+    CHECK(g120 < 0.2);
+    CHECK(model.g(120) > 0.2);
+  }
+  TestVolume<uint8_t> v(64, 64, 64, 1, 1, 1);
+  REQUIRE(fill_u8_around_centre(v, 11, [](double, int64_t) { return 100.0; }));
+  SmoothedRoi roi;
+  IntensityModel model;
+  Carved mem([&](Arena& a) {
+    roi.carve(a, int64_t(1) << 19, kCpu);
+    model.carve(a, 4096, kCpu);
+  });
+  const double c[3] = {32, 32, 32};
+  int64_t lo[3], hi[3];
+  roi_box_for_ball(v.view, c, 20, lo, hi);
+  REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
+  IntensityModelSettings ms;
+  for (double bad : {-1.0, double(NAN), double(INFINITY)}) {
+    ms.trim_sds = bad;
+    CHECK(model.fit(roi, c, 6, ms) == ModelStatus::bad_settings);
+  }
+}
+
 TEST_CASE("intensity: partial-volume boundaries sit at the half-way level of a blurred edge, from inside and outside") {
   // A u8 ball of 90 in a background of 30 (1 mm voxels, noise sigma 0.5); the
   // edge is a linear ramp 2 mm wide centred on R = 12 mm, so the half-way level
