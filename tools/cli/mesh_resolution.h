@@ -7,9 +7,10 @@
 // When the largest object asks for more than kRerunFactor times the first
 // resolution, the run is made again from the same spheres at that resolution;
 // else the first run stands. Small structures (Colin27's deep nuclei, 8 ml)
-// ask for 13-15 and keep the first run, which is also the best fixed
-// resolution there (BENCHMARKS.md section 4: mean Dice 0.541 at n = 12
-// against 0.521-0.534 at 16, 21, 33); the Colin27 brain (ch2bet) asks for
+// ask for 13-15 and keep the first run, which is also among the best fixed
+// resolutions there (BENCHMARKS.md section 4, 2026-12-04: mean Dice 0.542 at
+// n = 12, 0.543 at 14, 0.531-0.540 at 8, 10, 16, 20, 24, 33; mean ASSD 3.17 mm
+// at 12, the lowest); the Colin27 brain (ch2bet) asks for
 // more than the cap, 49, the resolution of its chapter-4 test (Dice 0.988).
 #ifndef FFSEG_CLI_MESH_RESOLUTION_H
 #define FFSEG_CLI_MESH_RESOLUTION_H
