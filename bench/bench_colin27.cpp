@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "label_list.h"
 #include "../tests/support/system_entries.h"
 #include "../tests/test_util.h"
 #include "arena.h"
@@ -166,11 +167,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[a], "--reps") && a + 1 < argc) {
       reps = std::max(1, std::atoi(argv[++a]));
     } else if (!std::strcmp(argv[a], "--labels") && a + 1 < argc) {
-      for (char* s = argv[++a]; *s;) {
-        labels.push_back(int(std::strtol(s, &s, 10)));
-        if (*s == ',') ++s;
-        else if (*s) break;
-      }
+      parse_label_list(argv[++a], &labels);
     } else {
       std::fprintf(stderr, "usage: bench_colin27 [--reps R] [--labels 73,71,77]\n");
       return 2;

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "label_list.h"
 #include "../tests/support/mesh_check.h"
 #include "../tests/test_util.h"
 #include "ffseg.h"
@@ -162,11 +163,7 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[a], "--steps") && a + 1 < argc) {
       max_steps = std::max(1, std::atoi(argv[++a]));
     } else if (!std::strcmp(argv[a], "--labels") && a + 1 < argc) {
-      for (char* s = argv[++a]; *s;) {
-        labels.push_back(int(std::strtol(s, &s, 10)));
-        if (*s == ',') ++s;
-        else if (*s) break;
-      }
+      parse_label_list(argv[++a], &labels);
     } else {
       std::fprintf(stderr, "usage: bench_colin27_together [--n 12] [--steps 100] [--labels 71,72,...]\n");
       return 2;

@@ -16,24 +16,14 @@
 
 #include "cubesphere.h"
 #include "ffseg.h"
+#include "support/mesh_box.h"
 #include "test_util.h"
 #include "volume.h"
 
 using ffseg_test::EngineBox;
 using ffseg_test::make_volume;
 
-namespace {
-
-struct MeshBox {
-  ffseg::CubeSphere m;
-  ffseg_test::ArenaBox box;
-  explicit MeshBox(uint32_t n) : box([&](ffseg::Arena& a) { m.carve(a, n); }) {
-    REQUIRE(box.ok());
-    m.build();
-  }
-};
-
-}  // namespace
+using ffseg_test::MeshBox;
 
 TEST_CASE("workspace: exact size, one byte less fails with the size named, misaligned fails") {
   for (uint32_t n : {2u, 7u, 33u}) {

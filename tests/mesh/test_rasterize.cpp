@@ -17,26 +17,15 @@
 #include "cubesphere.h"
 #include "ffseg.h"
 #include "rasterize.h"
+#include "support/mesh_box.h"
 #include "test_util.h"
 #include "volume.h"
 
 using ffseg_test::EngineBox;
 using ffseg_test::make_volume;
 
-namespace {
-
-struct MeshBox {
-  ffseg::CubeSphere m;
-  ffseg_test::ArenaBox box;
-  explicit MeshBox(uint32_t n) : box([&](ffseg::Arena& a) { m.carve(a, n); }) {
-    REQUIRE(box.ok());
-    m.build();
-  }
-};
-
+using ffseg_test::MeshBox;
 using ffseg_test::u8_view;
-
-}  // namespace
 
 TEST_CASE("sphere placement: radius exact, enclosed volume within 1%") {
   const int64_t dims[3] = {64, 64, 64};
