@@ -13,6 +13,7 @@
 #include <string>
 
 #include "ffseg.h"
+#include "engine_volume.h"
 #include "nifti.h"
 
 namespace ffseg_fuzz {
@@ -67,19 +68,7 @@ inline int check_read(const char* target, bool ok, const ffseg_tools::NiftiImage
     reader_finding(target, "bad rescale", std::to_string(img.scl_slope));
 
   // The engine accepts what the reader accepts (but a single slice).
-  ffseg_volume v;
-  std::memset(&v, 0, sizeof v);
-  v.struct_size = sizeof v;
-  v.voxel_type = uint32_t(img.voxel_type);
-  v.data = img.data.data();
-  v.data_bytes = img.data.size();
-  for (int a = 0; a < 3; ++a) v.dims[a] = img.dims[a];
-  v.strides[0] = es;
-  v.strides[1] = int64_t(es) * img.dims[0];
-  v.strides[2] = int64_t(es) * img.dims[0] * img.dims[1];
-  std::memcpy(v.index_to_world, img.index_to_world, sizeof v.index_to_world);
-  v.rescale_slope = img.scl_slope;
-  v.rescale_intercept = img.scl_inter;
+  const ffseg_volume v = ffseg_tools::engine_volume(img);
   ffseg_engine* e = reader_engine();
   const ffseg_status sv = ffseg_set_volume(e, &v);
   // The engine refuses a single slice along any axis (ddb44bf: a closed

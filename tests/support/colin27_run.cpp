@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <vector>
 
+#include "engine_volume.h"
 #include "support/mesh_check.h"
 #include "test_util.h"
 
@@ -16,13 +17,7 @@ namespace ffseg_test {
 const char* const kColin27T1 = "/usr/share/mricron/templates/ch2.nii.gz";
 const char* const kColin27Aal = "/usr/share/mricron/templates/aal.nii.gz";
 
-ffseg_volume volume_of(const ffseg_tools::NiftiImage& img) {
-  const int64_t dims[3] = {img.dims[0], img.dims[1], img.dims[2]};
-  ffseg_volume v = ffseg_test::make_volume(img.data.data(), uint32_t(img.voxel_type), dims, img.index_to_world);
-  v.rescale_slope = img.scl_slope;
-  v.rescale_intercept = img.scl_inter;
-  return v;
-}
+ffseg_volume volume_of(const ffseg_tools::NiftiImage& img) { return ffseg_tools::engine_volume(img); }
 
 void protocol_sphere(const ffseg_tools::NiftiImage& t1, const std::vector<uint8_t>& truth, double c[3], double* r) {
   std::array<int, 3> ijk{};

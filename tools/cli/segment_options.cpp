@@ -278,3 +278,156 @@ std::string segment_usage() {
 }
 
 }  // namespace ffseg_cli
+
+namespace ffseg_cli {
+
+namespace {
+
+bool ends_with(const std::string& s, const char* suffix) {
+  const size_t n = std::strlen(suffix);
+  return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
+}
+
+// --names: one valid, distinct name per object; default object1, object2, ...
+std::vector<std::string> object_names(const std::string& names_opt, uint32_t nobj) {
+  std::vector<std::string> names;
+  if (names_opt.empty()) {
+    for (uint32_t k = 0; k < nobj; ++k) names.push_back("object" + std::to_string(k + 1));
+    return names;
+  }
+  names = split(names_opt, ',');
+  if (names.size() != nobj)
+    fail(kExitUsage, "--names gives " + std::to_string(names.size()) + " name(s) for " + std::to_string(nobj) + " object(s)");
+  for (size_t i = 0; i < names.size(); ++i) {
+    if (!valid_name(names[i]))
+      fail(kExitUsage, "--names: '" + names[i] + "' is not a valid name (letters, digits, '_', '-', '.'; not starting with '.' or '-')");
+    for (size_t j = 0; j < i; ++j)
+      if (names[i] == names[j]) fail(kExitUsage, "--names: '" + names[i] + "' is given twice");
+  }
+  return names;
+}
+
+// --regions FILE: a new file (or --force) of an image format, in a directory that exists.
+void check_regions_path(const std::string& path, uint32_t nobj, bool force) {
+  if (nobj < 2) fail(kExitUsage, "--regions: bounding regions exist only for two or more objects (thesis 6.2), got one");
+  if (path_exists(path) && !force) fail(kExitUsage, "--regions " + path + " exists (use --force to replace it)");
+  if (is_directory(path)) fail(kExitUsage, "--regions " + path + " is a directory");
+  if (!ends_with(path, ".nii.gz") && !ends_with(path, ".nii") && !ends_with(path, ".nrrd") && !ends_with(path, ".mha"))
+    fail(kExitUsage, "--regions " + path + ": the file name must end in .nii.gz, .nii, .nrrd or .mha");
+  if (!is_directory(parent_dir(path)))
+    fail(kExitUsage, "--regions: the parent directory " + parent_dir(path) + " does not exist");
+}
+
+// --out DIR: refused early, before any work, unless it can take the results.
+void check_out_dir(SegmentRequest* rq) {
+  std::string& out = rq->out_dir;
+  while (out.size() > 1 && out.back() == '/') out.pop_back();
+  const bool exists = path_exists(out);
+  if (exists && !is_directory(out)) fail(kExitUsage, "--out " + out + " exists and is not a directory");
+  rq->out_nonempty = exists && !directory_is_empty(out);
+  if (rq->out_nonempty && !rq->force)
+    fail(kExitUsage, "output directory " + out + " exists and is not empty (use --force to replace it)");
+  rq->out_parent = parent_dir(out);
+  if (!is_directory(rq->out_parent)) fail(kExitUsage, "--out: the parent directory " + rq->out_parent + " does not exist");
+  if (base_name(out) == "." || base_name(out) == ".." || base_name(out) == "/")
+    fail(kExitUsage, "--out: give a directory name, not '" + out + "'");
+}
+
+}  // namespace
+
+SegmentRequest parse_segment_request(int argc, char** argv) {
+  SegmentRequest rq;
+  ffseg_params_init_default(&rq.params);
+  rq.params.target_mode = kDefaultTarget;
+  Args args(argc, argv, 2);
+  std::string tok, names_opt, truth_labels_opt;
+  bool have_truth_labels = false;
+  bool opt;
+  while (args.next(&tok, &opt)) {
+    if (!opt) {
+      if (!rq.volume_path.empty()) fail(kExitUsage, "one VOLUME only ('" + tok + "' is extra)");
+      rq.volume_path = tok;
+    } else if (tok == "-h" || tok == "--help") {
+      std::fputs(segment_usage().c_str(), stdout);
+      rq.help = true;
+      return rq;
+    } else if (tok == "--sphere" || tok == "--sphere-voxel") {
+      rq.spheres.push_back(parse_sphere(tok, args.value(tok)));
+    } else if (tok == "--sphere-from-label") {
+      rq.spheres.push_back(parse_sphere_from_label(tok, args.value(tok)));
+    } else if (tok == "--out" || tok == "-o") {
+      rq.out_dir = args.value(tok);
+      if (rq.out_dir.empty()) fail(kExitUsage, "--out: empty path");
+    } else if (tok == "--force") {
+      rq.force = true;
+    } else if (tok == "-q" || tok == "--quiet") {
+      rq.quiet = true;
+    } else if (tok == "--window") {
+      const std::string v = args.value(tok);
+      const size_t comma = v.find(',');
+      if (comma == std::string::npos) fail(kExitUsage, "--window: expected LO,HI, got '" + v + "'");
+      rq.window[0] = parse_double(v.substr(0, comma), tok);
+      rq.window[1] = parse_double(v.substr(comma + 1), tok);
+      if (!(rq.window[1] > rq.window[0])) fail(kExitUsage, "--window: HI must be above LO, got '" + v + "'");
+      rq.have_window = true;
+    } else if (tok == "--mesh-resolution") {
+      const std::string v = args.value(tok);
+      rq.mesh_resolution = v == "auto" ? 0 : uint32_t(parse_int(v, tok, 2, 1024));
+    } else if (tok == "--max-steps") {
+      rq.max_steps = parse_int(args.value(tok), tok, 1, 1000000);
+    } else if (tok == "--max-roi-voxels") {
+      rq.max_roi = parse_int(args.value(tok), tok, 0, int64_t(1) << 40);
+    } else if (tok == "--param") {
+      set_param(&rq.params, args.value(tok));
+    } else if (tok == "--target") {
+      const std::string v = args.value(tok);
+      if (v != "binary" && v != "intensity") fail(kExitUsage, "--target: expected binary or intensity, got '" + v + "'");
+      rq.params.target_mode = parse_target(v, tok);
+    } else if (tok == "--names") {
+      names_opt = args.value(tok);
+    } else if (tok == "--labels-format") {
+      const std::string v = args.value(tok);
+      if (!ffseg_tools::image_format_from_name(v, &rq.labels_format) ||
+          rq.labels_format == ffseg_tools::ImageFormat::Dicom)
+        fail(kExitUsage, "--labels-format: expected nifti, nrrd or metaimage, got '" + v + "'");
+      rq.have_labels_format = true;
+    } else if (tok == "--mesh-format") {
+      const std::string v = args.value(tok);
+      if (!ffseg_tools::mesh_format_from_name(v, &rq.mesh_format))
+        fail(kExitUsage, "--mesh-format: expected ply, stl, obj or vtk, got '" + v + "'");
+    } else if (tok == "--regions") {
+      rq.regions_path = args.value(tok);
+      if (rq.regions_path.empty()) fail(kExitUsage, "--regions: empty path");
+    } else if (tok == "--truth") {
+      rq.truth_path = args.value(tok);
+    } else if (tok == "--truth-labels") {
+      truth_labels_opt = args.value(tok);
+      have_truth_labels = true;
+    } else {
+      fail(kExitUsage, "unknown option " + tok + " (see 'ffseg segment --help')");
+    }
+  }
+  if (rq.volume_path.empty()) fail(kExitUsage, "missing VOLUME");
+  if (rq.spheres.empty())
+    fail(kExitUsage,
+         "no object: give at least one --sphere X,Y,Z,R, --sphere-voxel I,J,K,R or --sphere-from-label LABELS:L");
+  if (rq.spheres.size() > 64) fail(kExitUsage, "at most 64 objects, got " + std::to_string(rq.spheres.size()));
+  if (rq.out_dir.empty()) fail(kExitUsage, "missing --out DIR");
+  const uint32_t nobj = rq.objects();
+  rq.names = object_names(names_opt, nobj);
+  if (have_truth_labels) {
+    if (rq.truth_path.empty()) fail(kExitUsage, "--truth-labels needs --truth LABELS");
+    for (const std::string& s : split(truth_labels_opt, ','))
+      rq.labels.push_back(parse_int(s, "--truth-labels", 1, 2147483647LL));
+    if (rq.labels.size() != nobj)
+      fail(kExitUsage, "--truth-labels gives " + std::to_string(rq.labels.size()) + " label(s) for " +
+                           std::to_string(nobj) + " object(s)");
+  } else {
+    rq.labels = default_labels(rq.spheres);
+  }
+  if (!rq.regions_path.empty()) check_regions_path(rq.regions_path, nobj, rq.force);
+  check_out_dir(&rq);
+  return rq;
+}
+
+}  // namespace ffseg_cli

@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "ffseg.h"
+#include "image_io.h"
+#include "mesh_io.h"
 #include "nifti.h"
 #include "report_json.h"
 
@@ -57,6 +59,34 @@ void resolve_label_spheres(std::vector<SphereArg>* spheres, const ffseg_tools::N
 std::vector<int64_t> default_labels(const std::vector<SphereArg>& spheres);
 // A --names entry: letters, digits, '_', '-', '.'; not starting with '.' or '-'.
 bool valid_name(const std::string& n);
+
+// Everything `ffseg segment` was asked for, checked before any work: the
+// objects (spheres, names, labels), the engine's settings and where the
+// results go.
+struct SegmentRequest {
+  bool help = false;  // -h / --help: the usage was printed, nothing else to do
+  std::string volume_path, out_dir, truth_path, regions_path;
+  std::vector<SphereArg> spheres;
+  std::vector<std::string> names;  // one per object
+  std::vector<int64_t> labels;     // one per object: its label in labels.nii.gz (and in --truth)
+  ffseg_params params{};
+  uint32_t mesh_resolution = 0;    // 0: automatic (mesh_resolution.h)
+  bool have_window = false;
+  double window[2] = {0, 1};       // --window LO,HI (overlay grey levels)
+  int64_t max_steps = kDefaultMaxSteps;
+  int64_t max_roi = -1;            // < 0: the grid's voxel count, at most kMaxRoiCap
+  ffseg_tools::MeshFormat mesh_format = ffseg_tools::MeshFormat::Ply;
+  bool have_labels_format = false;
+  ffseg_tools::ImageFormat labels_format = ffseg_tools::ImageFormat::Nifti;
+  bool force = false, quiet = false;
+  bool out_nonempty = false;       // --out exists with files in it (and --force replaces them)
+  std::string out_parent;
+  uint32_t objects() const { return uint32_t(spheres.size()); }
+};
+
+// Parses and checks `ffseg segment`'s command line (argv[2..]); every
+// mistake is fail(kExitUsage) with a message, before anything is read.
+SegmentRequest parse_segment_request(int argc, char** argv);
 
 }  // namespace ffseg_cli
 
