@@ -904,6 +904,23 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     REQUIRE(objs != nullptr);
     CHECK((*objs)[0].get("vertices")->as_number() == 6 * n * n);
   }
+  {  // A first run measured before it rests (kMeasureSteps) and kept goes on
+     // from there: the same steps and mask as a run fixed at 12.
+    const std::string slow = " --target binary --sphere 4,27,12,4 --param step_size=0.02 --param convergence_mm=0.01 --max-steps 400";
+    const Run r = ffseg(s, "segment " + (s / "small.nii.gz") + slow + " --out " + (s / "d"));
+    const Run f = ffseg(s, "segment " + (s / "small.nii.gz") + slow + " --mesh-resolution 12 --out " + (s / "e"));
+    INFO("stderr: " << r.err);
+    REQUIRE(r.code == 0);
+    REQUIRE(f.code == 0);
+    CHECK(r.err.find("segmenting again") == std::string::npos);
+    const Json rd = parse_json(slurp(s / "d/report.json"));
+    const Json re = parse_json(slurp(s / "e/report.json"));
+    CHECK(rd.get("steps")->as_number() > 60);  // else this case does not measure before rest
+    CHECK(rd.get("steps")->as_number() == re.get("steps")->as_number());
+    CHECK(rd.get("converged")->as_bool());
+    CHECK(rd.get("config")->get("mesh_resolution")->as_number() == 12);
+    CHECK(slurp(s / "d/labels.nii.gz") == slurp(s / "e/labels.nii.gz"));
+  }
   {  // --mesh-resolution fixes it.
     const Run r = ffseg(s, "segment " + (s / "small.nii.gz") + " --target binary --sphere 4,27,12,4 --mesh-resolution 9 --out " + (s / "c"));
     REQUIRE(r.code == 0);

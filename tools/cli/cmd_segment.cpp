@@ -249,19 +249,24 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
   }
 }
 
-// Steps every object until all are at rest or --max-steps, with a progress line.
-void step_to_rest(const SegmentRequest& rq, EngineRun* run) {
+// Steps every object until all are at rest or the run has taken `limit`
+// steps (at most --max-steps), with a progress line; resume: go on from the
+// steps already taken. Returns whether every object is at rest.
+bool step_to_rest(const SegmentRequest& rq, EngineRun* run, int64_t limit, bool resume) {
   const uint32_t nobj = rq.objects();
-  for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) run->stage_us[g] = 0;
   ffseg_step_info& info = run->info;
-  std::memset(&info, 0, sizeof info);
-  info.struct_size = sizeof info;
-  run->converged = false;
-  run->steps = 0;
-  run->border_vertices.assign(nobj, 0);
+  if (!resume) {
+    for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) run->stage_us[g] = 0;
+    std::memset(&info, 0, sizeof info);
+    info.struct_size = sizeof info;
+    run->converged = false;
+    run->steps = 0;
+    run->border_vertices.assign(nobj, 0);
+  }
   const auto t0 = std::chrono::steady_clock::now();
   Progress progress(!rq.quiet, rq.max_steps, nobj);
-  for (int64_t s = 0; s < rq.max_steps; ++s) {
+  bool at_rest = false;
+  for (int64_t s = run->steps; s < std::min(limit, rq.max_steps); ++s) {
     check_interrupted();
     const ffseg_status st = ffseg_step(run->ws.e, &info);
     if (st == FFSEG_ERR_NOT_IMPLEMENTED) {
@@ -277,10 +282,11 @@ void step_to_rest(const SegmentRequest& rq, EngineRun* run) {
       if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0)
         run->border_vertices[k] = info.border_vertices[k];
     run->converged = st == FFSEG_CONVERGED;
-    const bool at_rest = run->converged || st == FFSEG_DEGENERATE;
+    at_rest = run->converged || st == FFSEG_DEGENERATE;
     progress.step(info, seconds_since(t0), at_rest || run->steps == rq.max_steps);
     if (at_rest) break;
   }
+  return at_rest;
 }
 
 // The finest mesh resolution the objects' surfaces ask for (mesh_resolution.h).
@@ -301,8 +307,9 @@ uint32_t wanted_resolution(const ffseg_engine* e, const ffseg_tools::NiftiImage&
 }
 
 // The deformation. Without --mesh-resolution the first run at
-// kFirstResolution measures each object's surface and the run is made again
-// when they ask for a finer mesh (mesh_resolution.h).
+// kFirstResolution measures each object's surface, at rest or after
+// kMeasureSteps steps, and the run is made again when they ask for a finer
+// mesh (mesh_resolution.h); else the first run goes on where it stopped.
 void run_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, EngineRun* run) {
   const bool automatic = rq.mesh_resolution == 0;
   run->resolution = automatic ? kFirstResolution : rq.mesh_resolution;
@@ -311,14 +318,23 @@ void run_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, En
     const auto t_setup0 = std::chrono::steady_clock::now();
     start_engine(rq, img, run);
     run->t_setup += seconds_since(t_setup0);
-    const auto t_step0 = std::chrono::steady_clock::now();
-    step_to_rest(rq, run);
+    const bool measuring = automatic && pass == 0;
+    auto t_step0 = std::chrono::steady_clock::now();
+    const bool at_rest = step_to_rest(rq, run, measuring ? kMeasureSteps : rq.max_steps, false);
     run->t_stepping = seconds_since(t_step0);
+    if (!measuring) break;
     // A finer mesh would not make a segmentation of a result that is none.
-    if (!automatic || pass > 0 || run->info.flags_all != 0) break;
-    run->wanted_resolution = wanted_resolution(run->ws.e, img, rq.objects());
-    const uint32_t again = rerun_resolution(run->wanted_resolution);
-    if (again == 0) break;
+    const uint32_t again = run->info.flags_all != 0
+                               ? 0
+                               : rerun_resolution(run->wanted_resolution = wanted_resolution(run->ws.e, img, rq.objects()));
+    if (again == 0) {
+      if (!at_rest) {
+        t_step0 = std::chrono::steady_clock::now();
+        step_to_rest(rq, run, rq.max_steps, true);
+        run->t_stepping += seconds_since(t_step0);
+      }
+      break;
+    }
     if (!rq.quiet)
       std::fprintf(stderr, "ffseg: the surfaces ask for mesh resolution %u; segmenting again at it "
                    "(--mesh-resolution N to fix one)\n", again);
