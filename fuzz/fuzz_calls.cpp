@@ -19,9 +19,11 @@
 // engine most: the patch certificate is built lazily), so each object stepped
 // takes n^2 from kWorkBudget, the final check's step included; a step that
 // would exceed it is skipped (the final check then verifies everything but
-// the step); besides, one step of two or more objects at n = 2 per input is
-// free of the budget, so that the bounding regions (thesis 6.2) are computed
-// and region_mask has something to read. The config block gives meshes of n <= 4 and up to 4 objects; a
+// the step); besides, one step of two objects at n = 2 per input is free of
+// the budget, so that the bounding regions (thesis 6.2) are computed and
+// region_mask has something to read. Placements (an intensity fit and a
+// contact test each) and iteration counts in the parameters are bounded too.
+// The config block gives meshes of n <= 4 and up to 4 objects; a
 // raw config asking for objects * n^2 > kCreateBudget is created only where
 // creation must fail, and the small fallback engine runs the sequence (its six
 // configs are created once and restored, fuzz_workspace.h; the input's own
@@ -50,8 +52,12 @@ using ffseg_fuzz::Reader;
 constexpr uint64_t kWorkBudget = 4;
 // objects * n^2 of the largest engine created (the config block's 4 x 4^2).
 constexpr uint64_t kCreateBudget = 64;
-// Steps of several objects at n = 2 (the regions stage) per input, beyond kWorkBudget.
+// Steps of two objects at n = 2 (the regions stage) per input, beyond
+// kWorkBudget; three and four objects are fuzz_volume's (their step guard
+// tests every triangle against the others': four times the two's cost).
 constexpr int kMaxRegionSteps = 1;
+// init_sphere calls with a volume set per input.
+constexpr int kMaxPlacements = 8;
 // Destroy-and-re-create operations per input.
 constexpr int kMaxRecreate = 1;
 // Inputs taking the final check's step: those whose hash is 0 modulo this.
@@ -77,6 +83,17 @@ double pick_double(Reader& in) {
   if (s < nt) return table[s];
   if (s < 200) return (s - nt) * 0.125;
   return in.take<double>();
+}
+
+// Iteration counts (diffusion, smoothing, partial-volume steps): each round
+// costs a pass over the mesh or the crop, so the valid range is explored at
+// its small end and around its largest valid value only; out-of-range values
+// still come.
+uint32_t pick_count(Reader& in, uint32_t largest) {
+  const uint8_t s = in.take<uint8_t>();
+  if (s < 200) return s % 8;
+  if (s < 250) return largest - 1 + s % 3;
+  return in.take<uint32_t>();
 }
 
 uint32_t pick_u32(Reader& in) {
@@ -233,7 +250,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const size_t NV = size_t(6) * n * n;
   const size_t NT = size_t(12) * n * n - 4;
   uint64_t work = 0;
-  int recreated = 0, region_steps = 0;
+  int recreated = 0, region_steps = 0, placements = 0;
   // Objects that may have a bounding region: placed when a step was called
   // with two or more objects placed, not placed again since, volume unchanged.
   std::vector<bool> may_have_region(objects, false);
@@ -264,19 +281,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (which & 64) p.search_range_mm = pick_double(in);
         if (which & 128) p.search_step_mm = pick_double(in);
         if (which & 256) p.convergence_mm = pick_double(in);
-        if (which & 512) p.diffusion_iterations = pick_u32(in);
+        if (which & 512) p.diffusion_iterations = pick_count(in, 100);
         if (which & 1024) p.consecutive_background = pick_u32(in);
         if (which & 2048) p.struct_size = in.take<uint8_t>();
         if (which & 8192) {  // the grey-level and bounding-region fields (chapters 5 and 6)
           const uint16_t more = in.take<uint16_t>();
-          if (more & 1) p.smoothing_iterations = pick_u32(in);
+          if (more & 1) p.smoothing_iterations = pick_count(in, 100);
           if (more & 2) p.bin_min_count = pick_u32(in);
           if (more & 4) p.smoothing_kappa = pick_double(in);
           if (more & 8) p.intensity_gamma = pick_double(in);
           if (more & 16) p.sigma_floor_fraction = pick_double(in);
           if (more & 32) p.bin_radius = pick_double(in);
           if (more & 64) p.bin_separation = pick_double(in);
-          if (more & 128) p.partial_volume_steps = pick_u32(in);
+          if (more & 128) p.partial_volume_steps = pick_count(in, 1000);
           if (more & 256) p.region_width_mm = pick_double(in);
           if (more & 512) p.border_weight = pick_double(in);
           if (more & 1024) p.region_interval = pick_u32(in);
@@ -326,6 +343,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           c[2] = 17.0 + (in.take<int8_t>() / 16.0);
         }
         const double r = (mode & 2) ? pick_double(in) : 0.5 + in.take<uint8_t>() / 16.0;
+        // A placement with a volume fits the intensity model and tests the
+        // sphere against the objects already placed: bounded per input.
+        if (have_volume && ++placements > kMaxPlacements) break;
         st = ffseg_init_sphere(e, object, (mode & 4) ? nullptr : c, r);
         check_status(st, "init_sphere");
         if (st == FFSEG_OK) {
@@ -343,7 +363,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         uint64_t stepped = 0;
         for (bool b : placed) stepped += b ? 1 : 0;
         const uint64_t cost = uint64_t(n) * n * (stepped ? stepped : 1);
-        const bool region_step = stepped >= 2 && n == 2 && region_steps < kMaxRegionSteps;
+        const bool region_step = stepped == 2 && n == 2 && region_steps < kMaxRegionSteps;
         if (region_step) ++region_steps;
         else if (work + cost > kWorkBudget) break;  // over budget: skipped
         else work += cost;
