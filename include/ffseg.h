@@ -172,7 +172,10 @@ typedef struct ffseg_params {
   uint32_t struct_size;         /* sizeof(ffseg_params) */
   uint32_t target_mode;         /* FFSEG_TARGET_*; default FFSEG_TARGET_BINARY */
   double lambda_laplacian;      /* lambda_L, Laplacian preservation; (0, 1e6]; default 1 */
-  double lambda_position;       /* lambda_p, positional constraints; (0, 1e6]; default 1 */
+  double lambda_position;       /* lambda_p, positional constraints; [1e-6, 1e6]; default 1 (every
+                                   vertex keeps an anchor of 1e-3 lambda_p that makes the system
+                                   positive definite; far below 1e-6 it is numerically singular, and
+                                   at the smallest doubles the anchor rounds to 0) */
   double lambda_uniform;        /* lambda_u, uniform edge length on contours, as a tension (edges longer
                                    than their loop's mean are drawn in); [0, 1e6]; default 0.25 */
   double step_size;             /* alpha: p_i = u_i + alpha (v_i - u_i); (0, 1]; default 0.5 */

@@ -29,7 +29,7 @@
   X(target_mode, TargetMode, U32, 0, 0, 1, CC, "",                                                        \
     "0 = binary (non-zero voxels are the object), 1 = intensity (grey levels, chapter 5)")                \
   X(lambda_laplacian, double, F64, 1.0, 0, 1e6, OC, "", "lambda_L, Laplacian preservation")               \
-  X(lambda_position, double, F64, 1.0, 0, 1e6, OC, "", "lambda_p, positional constraints")                \
+  X(lambda_position, double, F64, 1.0, 1e-6, 1e6, CC, "", "lambda_p, positional constraints")            \
   X(lambda_uniform, double, F64, 0.25, 0, 1e6, CC, "", "lambda_u, uniform edge length on the contours")    \
   X(step_size, double, F64, 0.5, 0, 1, OC, "", "alpha: p_i = u_i + alpha (v_i - u_i)")                    \
   X(flip_tau, double, F64, 0.2, 0, 1, CO, "", "tau of eq. 4.2.1: an edge flips when cos <= tau")          \
@@ -90,11 +90,11 @@ inline bool param_in_range(const ParamSpec& s, double v) {
   return lo_ok && hi_ok;
 }
 
-// A bound as include/ffseg.h writes it: powers of ten from 1e4 as "1eK",
+// A bound as include/ffseg.h writes it: powers of ten from 1e4 and up to 1e-4 as "1eK",
 // 2^31 as "2^31", anything else as %g.
 inline void param_bound_text(double v, char* buf, unsigned len) {
   const double k = std::log10(v);
-  if (v >= 1e4 && k == std::floor(k)) std::snprintf(buf, len, "1e%d", int(k));
+  if ((v >= 1e4 || (v > 0 && v <= 1e-4)) && k == std::floor(k)) std::snprintf(buf, len, "1e%d", int(k));
   else if (v == 2147483648.0) std::snprintf(buf, len, "2^31");
   else std::snprintf(buf, len, "%g", v);
 }

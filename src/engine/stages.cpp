@@ -254,11 +254,6 @@ Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x
   }
   s.solver.solve_forwarded(s.rhs, nv);
   lap(kStageSolve);
-  for (size_t q = 0; q < size_t(3) * nv; ++q)
-    if (!std::isfinite(s.rhs[q])) {
-      std::snprintf(msg, msg_len, "step: the solve produced non-finite positions; mesh unchanged");
-      return Err::numeric;
-    }
   // A border vertex goes to its positional target and no further (thesis
   // 6.3): its weight already holds it there up to the solve's small give,
   // which must not carry it across the border.
@@ -266,6 +261,14 @@ Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x
     for (uint32_t v = 0; v < nv; ++v)
       if (border[v])
         for (int a = 0; a < 3; ++a) s.rhs[size_t(a) * nv + v] = s.goal[3 * size_t(v) + a];
+  // Checked after the border targets are copied in: a target enters the
+  // solve only through its weight, so a non-finite one (a weight that
+  // rounded to 0 once made 0/0 of it) would pass a check of the solve alone.
+  for (size_t q = 0; q < size_t(3) * nv; ++q)
+    if (!std::isfinite(s.rhs[q])) {
+      std::snprintf(msg, msg_len, "step: the solve produced non-finite positions; mesh unchanged");
+      return Err::numeric;
+    }
   // Several objects: the others' meshes are obstacles the update may not
   // touch (the hard no-overlap guarantee); the guard holds back the
   // vertices in contact as it does those of a fold or a crossing.

@@ -341,6 +341,9 @@ std::vector<Case> malformed_cases() {
       {"params: target_mode 2", [] { return params_case([](ffseg_params& p) { p.target_mode = 2; }); }, FFSEG_ERR_INVALID_ARGUMENT, "target_mode"},
       {"params: lambda_laplacian 0", [] { return params_case([](ffseg_params& p) { p.lambda_laplacian = 0; }); }, FFSEG_ERR_INVALID_ARGUMENT, "lambda_laplacian"},
       {"params: lambda_position NaN", [] { return params_case([](ffseg_params& p) { p.lambda_position = NAN; }); }, FFSEG_ERR_INVALID_ARGUMENT, "lambda_position"},
+      // The smallest denormal once passed (0, 1e6] and its anchor weight rounded to 0: NaN vertices (fuzz_calls, 2026-12-04).
+      {"params: lambda_position 4.9e-324", [] { return params_case([](ffseg_params& p) { p.lambda_position = 4.9406564584124654e-324; }); }, FFSEG_ERR_INVALID_ARGUMENT, "lambda_position = 4.94066e-324 is outside [1e-6, 1e6]"},
+      {"params: lambda_position 1e-7", [] { return params_case([](ffseg_params& p) { p.lambda_position = 1e-7; }); }, FFSEG_ERR_INVALID_ARGUMENT, "lambda_position"},
       {"params: lambda_uniform -1", [] { return params_case([](ffseg_params& p) { p.lambda_uniform = -1; }); }, FFSEG_ERR_INVALID_ARGUMENT, "lambda_uniform"},
       {"params: lambda_laplacian 1e6 + 1", [] { return params_case([](ffseg_params& p) { p.lambda_laplacian = 1e6 + 1; }); }, FFSEG_ERR_INVALID_ARGUMENT, "lambda_laplacian"},
       {"params: step_size Inf", [] { return params_case([](ffseg_params& p) { p.step_size = INFINITY; }); }, FFSEG_ERR_INVALID_ARGUMENT, "step_size"},

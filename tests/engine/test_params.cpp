@@ -190,6 +190,7 @@ TEST_CASE("params: range text is written as include/ffseg.h writes it") {
   };
   CHECK(std::string(ffseg::param_range_text(spec("lambda_laplacian"), b, sizeof b)) == "(0, 1e6]");
   CHECK(std::string(ffseg::param_range_text(spec("flip_tau"), b, sizeof b)) == "[0, 1)");
+  CHECK(std::string(ffseg::param_range_text(spec("lambda_position"), b, sizeof b)) == "[1e-6, 1e6]");
   CHECK(std::string(ffseg::param_range_text(spec("intensity_gamma"), b, sizeof b)) == "(0, 1)");
   CHECK(std::string(ffseg::param_range_text(spec("search_range_mm"), b, sizeof b)) == "[0, 1e4]");
   CHECK(std::string(ffseg::param_range_text(spec("consecutive_background"), b, sizeof b)) == "1..64");

@@ -320,3 +320,65 @@ TEST_CASE("regions: a sphere of 1e300 mm beside a stepped object is refused with
   CHECK(ffseg_init_sphere(eb.e, 1, b, 1.0) == FFSEG_OK);  // inside its own old place: no overlap with object 0
   CHECK(ffseg_step(eb.e, nullptr) >= 0);
 }
+
+TEST_CASE("regions: the weights' extremes never give a non-finite vertex; a failed solve leaves the meshes unchanged") {
+  // fuzz_calls (2026-12-04): lambda_position at the smallest denormal was
+  // accepted, its anchor weight rounded to 0, and a border vertex took the
+  // 0/0 of its target. The range now starts at 1e-6; these are its corners.
+  struct Corner {
+    double lp, ll, lu, bw;
+    uint32_t mode;
+  };
+  const Corner corners[] = {
+      {1e-6, 1, 0.25, 1000, FFSEG_TARGET_BINARY},     {1e-6, 1e6, 0.25, 1000, FFSEG_TARGET_BINARY},
+      {1e-6, 1e6, 1e6, 1e-300, FFSEG_TARGET_BINARY},  {1e6, 1e-300, 0, 1e9, FFSEG_TARGET_BINARY},
+      {1e-6, 0.5, 0.5, 0.5, FFSEG_TARGET_INTENSITY},  {1e-6, 1e6, 0, 1e9, FFSEG_TARGET_INTENSITY},
+  };
+  const Bar bar;
+  const double ca[3] = {22.3, 15.1, 14.8}, cb[3] = {44.6, 14.9, 15.2};
+  for (const Corner& c : corners) {
+    CAPTURE(c.lp);
+    CAPTURE(c.ll);
+    CAPTURE(c.lu);
+    CAPTURE(c.bw);
+    CAPTURE(c.mode);
+    ffseg_test::EngineBox eb(2, 4, int64_t(1) << 18);
+    REQUIRE(eb.e != nullptr);
+    ffseg_params p;
+    ffseg_params_init_default(&p);
+    p.lambda_position = c.lp;
+    p.lambda_laplacian = c.ll;
+    p.lambda_uniform = c.lu;
+    p.border_weight = c.bw;
+    p.target_mode = c.mode;
+    REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+    bar.set(eb.e);
+    REQUIRE(ffseg_init_sphere(eb.e, 0, ca, 6.0) == FFSEG_OK);
+    REQUIRE(ffseg_init_sphere(eb.e, 1, cb, 6.0) == FFSEG_OK);
+    ffseg_test::MeshWatch wa, wb;
+    REQUIRE(wa.look(eb.e, 0));
+    REQUIRE(wb.look(eb.e, 1));
+    ffseg_status st = FFSEG_OK;
+    int steps = 0, refused = 0;
+    while (st == FFSEG_OK && steps < 40) {
+      const std::vector<float> before_a = wa.xyz, before_b = wb.xyz;
+      st = ffseg_step(eb.e, nullptr);
+      ++steps;
+      REQUIRE(wa.look(eb.e, 0));
+      REQUIRE(wb.look(eb.e, 1));
+      size_t bad = 0;
+      for (float f : wa.xyz) bad += !std::isfinite(f);
+      for (float f : wb.xyz) bad += !std::isfinite(f);
+      CHECK(bad == 0);
+      CHECK((st == FFSEG_OK || st == FFSEG_CONVERGED || st == FFSEG_DEGENERATE || st == FFSEG_ERR_NUMERIC));
+      if (st == FFSEG_ERR_NUMERIC) {
+        ++refused;
+        CHECK(wa.xyz == before_a);
+        CHECK(wb.xyz == before_b);
+      }
+    }
+    MESSAGE("lp ", c.lp, " ll ", c.ll, " lu ", c.lu, " bw ", c.bw, ": ", steps, " steps, last status ", int(st),
+            ", refused ", refused, ", flips ", wa.flips + wb.flips, ", crossings ", wa.intersections + wb.intersections);
+    CHECK(wa.flips + wb.flips + wa.intersections + wb.intersections == 0);
+  }
+}
