@@ -5,6 +5,7 @@
 
 #include "support/u8_view.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -321,7 +322,7 @@ TEST_CASE("regions: a sphere of 1e300 mm beside a stepped object is refused with
   CHECK(ffseg_step(eb.e, nullptr) >= 0);
 }
 
-TEST_CASE("regions: the weights' extremes never give a non-finite vertex; a failed solve leaves the meshes unchanged") {
+TEST_CASE("regions: at the corners of the weights' ranges every vertex stays finite, with no flip or crossing") {
   // fuzz_calls (2026-12-04): lambda_position at the smallest denormal was
   // accepted, its anchor weight rounded to 0, and a border vertex took the
   // 0/0 of its target. The range now starts at 1e-6; these are its corners.
@@ -360,9 +361,13 @@ TEST_CASE("regions: the weights' extremes never give a non-finite vertex; a fail
     REQUIRE(wb.look(eb.e, 1));
     ffseg_status st = FFSEG_OK;
     int steps = 0, refused = 0;
+    uint32_t borders = 0;
     while (st == FFSEG_OK && steps < 40) {
       const std::vector<float> before_a = wa.xyz, before_b = wb.xyz;
-      st = ffseg_step(eb.e, nullptr);
+      ffseg_step_info info;
+      info.struct_size = sizeof info;
+      st = ffseg_step(eb.e, &info);
+      if (st >= 0) borders = std::max(borders, info.border_vertices[0] + info.border_vertices[1]);
       ++steps;
       REQUIRE(wa.look(eb.e, 0));
       REQUIRE(wb.look(eb.e, 1));
@@ -371,14 +376,15 @@ TEST_CASE("regions: the weights' extremes never give a non-finite vertex; a fail
       for (float f : wb.xyz) bad += !std::isfinite(f);
       CHECK(bad == 0);
       CHECK((st == FFSEG_OK || st == FFSEG_CONVERGED || st == FFSEG_DEGENERATE || st == FFSEG_ERR_NUMERIC));
-      if (st == FFSEG_ERR_NUMERIC) {
+      if (st == FFSEG_ERR_NUMERIC) {  // allowed (none of these corners gives it today), but only with the meshes unchanged
         ++refused;
         CHECK(wa.xyz == before_a);
         CHECK(wb.xyz == before_b);
       }
     }
     MESSAGE("lp ", c.lp, " ll ", c.ll, " lu ", c.lu, " bw ", c.bw, ": ", steps, " steps, last status ", int(st),
-            ", refused ", refused, ", flips ", wa.flips + wb.flips, ", crossings ", wa.intersections + wb.intersections);
+            ", refused ", refused, ", border vertices ", borders, ", flips ", wa.flips + wb.flips, ", crossings ", wa.intersections + wb.intersections);
     CHECK(wa.flips + wb.flips + wa.intersections + wb.intersections == 0);
+    CHECK(borders > 0);  // the meshes met each other's regions: finding 6's path (border targets) was taken
   }
 }
