@@ -33,16 +33,6 @@ double read_field(const ffseg_params& p, size_t offset, ffseg::ParamKind k) {
   return v;
 }
 
-void write_field(ffseg_params* p, size_t offset, ffseg::ParamKind k, double v) {
-  char* at = reinterpret_cast<char*>(p) + offset;
-  if (k == ffseg::ParamKind::U32) {
-    const uint32_t u = uint32_t(v);
-    std::memcpy(at, &u, 4);
-  } else {
-    std::memcpy(at, &v, 8);
-  }
-}
-
 // The engine's Params field i as a double, through the table's order.
 double engine_field(const ffseg::Params& q, unsigned i) {
   const double v[] = {
@@ -137,7 +127,7 @@ TEST_CASE("params: ffseg_set_params copies every field in and refuses each one b
     if (v > s.hi) v = s.hi;
     REQUIRE(ffseg::param_in_range(s, v));
     want[i] = v;
-    write_field(&p, f.offset, s.kind, v);
+    ffseg_cli::write_param(&p, f, v);
   }
   REQUIRE(ffseg_set_params(en.e, &p) == FFSEG_OK);
   for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
@@ -170,7 +160,7 @@ TEST_CASE("params: ffseg_set_params copies every field in and refuses each one b
       CAPTURE(bad[k]);
       REQUIRE_FALSE(ffseg::param_in_range(s, bad[k]));
       ffseg_params q = p;
-      write_field(&q, f.offset, s.kind, bad[k]);
+      ffseg_cli::write_param(&q, f, bad[k]);
       CHECK(ffseg_set_params(en.e, &q) == FFSEG_ERR_INVALID_ARGUMENT);
       const std::string msg = ffseg_last_error(en.e);
       CHECK(msg.find(std::string("params.") + s.name + " = ") != std::string::npos);
@@ -183,10 +173,9 @@ TEST_CASE("params: ffseg_set_params copies every field in and refuses each one b
 TEST_CASE("params: range text is written as include/ffseg.h writes it") {
   char b[48];
   auto spec = [](const char* name) -> const ffseg::ParamSpec& {
-    for (const ffseg::ParamSpec& s : ffseg::kParamSpecs)
-      if (std::strcmp(s.name, name) == 0) return s;
-    FAIL("no such parameter");
-    return ffseg::kParamSpecs[0];
+    const ffseg_cli::ParamField f = ffseg_cli::param_field_named(name);
+    REQUIRE(f.spec != nullptr);
+    return *f.spec;
   };
   CHECK(std::string(ffseg::param_range_text(spec("lambda_laplacian"), b, sizeof b)) == "(0, 1e6]");
   CHECK(std::string(ffseg::param_range_text(spec("flip_tau"), b, sizeof b)) == "[0, 1)");

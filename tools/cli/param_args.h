@@ -4,6 +4,8 @@
 // tests/engine/test_params.cpp checks the very table the tool uses.
 #pragma once
 #include <cstddef>
+#include <cstdint>
+#include <cstring>
 
 #include "ffseg.h"
 #include "param_table.h"
@@ -21,5 +23,24 @@ inline constexpr size_t kParamOffsets[] = {FFSEG_PARAM_TABLE(FFSEG_CLI_PARAM)};
 static_assert(sizeof(kParamOffsets) / sizeof(kParamOffsets[0]) == ffseg::kParamCount, "one offset per parameter");
 
 inline ParamField param_field(unsigned i) { return ParamField{&ffseg::kParamSpecs[i], kParamOffsets[i]}; }
+
+// The row named `name`; spec is nullptr when there is none.
+inline ParamField param_field_named(const char* name) {
+  for (unsigned i = 0; i < ffseg::kParamCount; ++i)
+    if (std::strcmp(ffseg::kParamSpecs[i].name, name) == 0) return param_field(i);
+  return ParamField{nullptr, 0};
+}
+
+// Writes v into row f's field of p: a U32 row as uint32_t (v must be a whole
+// number the field holds), an F64 row as it is.
+inline void write_param(ffseg_params* p, const ParamField& f, double v) {
+  char* at = reinterpret_cast<char*>(p) + f.offset;
+  if (f.spec->kind == ffseg::ParamKind::U32) {
+    const uint32_t u = uint32_t(v);
+    std::memcpy(at, &u, sizeof u);
+  } else {
+    std::memcpy(at, &v, sizeof v);
+  }
+}
 
 }  // namespace ffseg_cli

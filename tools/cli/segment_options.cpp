@@ -42,7 +42,6 @@ void set_param(ffseg_params* p, const std::string& assignment) {
   for (unsigned i = 0; i < ffseg::kParamCount; ++i) {
     const ParamField f = param_field(i);
     if (name != f.spec->name) continue;
-    char* base = reinterpret_cast<char*>(p) + f.offset;
     const std::string what = "--param " + name;
     double v;
     if (name == "target_mode") v = parse_target(value, what);
@@ -54,12 +53,7 @@ void set_param(ffseg_params* p, const std::string& assignment) {
       fail(kExitUsage, what + ": " + value + " is outside " + range +
                            (f.spec->unit[0] ? std::string(" ") + f.spec->unit : std::string()) + " (" + f.spec->doc + ")");
     }
-    if (f.spec->kind == ffseg::ParamKind::U32) {
-      const uint32_t u = uint32_t(v);
-      std::memcpy(base, &u, sizeof u);
-    } else {
-      std::memcpy(base, &v, sizeof v);
-    }
+    write_param(p, f, v);
     return;
   }
   fail(kExitUsage, "--param: unknown parameter '" + name + "' (known: " + param_names() + ")");
