@@ -1042,3 +1042,48 @@ TEST_CASE("cli: the overlay's grey window follows the objects, --window LO,HI ch
     CHECK(e.err.find("--window") != std::string::npos);
   }
 }
+
+TEST_CASE("cli: --seed-check segments again from five perturbed spheres and warns when the contour moves") {
+  Scratch s;
+  // Two balls 4 mm apart along x.
+  const Balls b = make_balls({{-6, 27, 12, 8}, {14, 27, 12, 8}}, {1, 2});
+  write(s / "two.nii.gz", b.image);
+  auto dice_of = [](const Json& rep) {
+    const Json* sc = rep.get("seed_check");
+    REQUIRE(sc != nullptr);
+    REQUIRE(sc->get("variants")->size() == 5);
+    const Json& o = (*sc->get("objects"))[0];
+    REQUIRE(o.get("dice")->size() == 5);
+    std::vector<double> d;
+    for (size_t v = 0; v < 5; ++v) {
+      REQUIRE((*o.get("dice"))[v].is_number());
+      d.push_back((*o.get("dice"))[v].as_number());
+    }
+    CHECK(o.get("lowest_dice")->as_number() == *std::min_element(d.begin(), d.end()));
+    CHECK(o.get("below_floor")->as_bool() == (o.get("lowest_dice")->as_number() < 0.85));
+    return d;
+  };
+  // Well inside the first ball: every perturbed sphere finds the same ball.
+  const Run in = ffseg(s, "segment " + (s / "two.nii.gz") + " --target binary --sphere -6,27,12,3 --seed-check --out " +
+                              (s / "in"));
+  INFO("stderr: " << in.err);
+  REQUIRE(in.code == 0);
+  CHECK(in.err.find("warning") == std::string::npos);
+  CHECK(in.err.find("seed check: object1 agrees with the perturbed runs at Dice ") != std::string::npos);
+  for (double d : dice_of(parse_json(slurp(s / "in/report.json")))) CHECK(d >= 0.95);
+  // Near the gap: the 1.5x sphere reaches into the second ball, and the
+  // warning says so even with --quiet.
+  const Run near = ffseg(s, "segment " + (s / "two.nii.gz") +
+                                " --target binary --sphere 0,27,12,5 --seed-check --quiet --out " + (s / "near"));
+  INFO("stderr: " << near.err);
+  REQUIRE(near.code == 0);
+  CHECK(near.err.find("warning: seed check: object1") != std::string::npos);
+  CHECK(near.err.find("radius x1.5") != std::string::npos);
+  const std::vector<double> d = dice_of(parse_json(slurp(s / "near/report.json")));
+  CHECK(d[1] < 0.85);
+  CHECK(d[0] >= 0.95);  // the 0.6x sphere stays in the first ball
+  // Without the option the report has no seed_check.
+  REQUIRE(ffseg(s, "segment " + (s / "two.nii.gz") + " --target binary --sphere -6,27,12,3 --quiet --out " + (s / "plain"))
+              .code == 0);
+  CHECK(parse_json(slurp(s / "plain/report.json")).get("seed_check") == nullptr);
+}

@@ -23,6 +23,7 @@
 #include "overlay.h"
 #include "segment_options.h"
 #include "mesh_resolution.h"
+#include "seed_check.h"
 #include "segment_outputs.h"
 #include "report_json.h"
 
@@ -561,6 +562,9 @@ void print_summary(const SegmentRequest& rq, const EngineRun& run, const std::ve
       std::printf("  dice %.4f  voe %.4f  assd %.3f mm  hd95 %.3f mm", m->get("dice")->as_number(),
                   m->get("voe")->as_number(), m->get("assd_mm")->as_number(), m->get("hd95_mm")->as_number());
     if (nobj > 1) std::printf("  border %u", res[k].border_vertices);
+    if (const ffseg_tools::Json* sc = rep.get("seed_check"))
+      std::printf("  seed check %.3f%s", (*sc->get("objects"))[k].get("lowest_dice")->as_number(),
+                  (*sc->get("objects"))[k].get("below_floor")->as_bool() ? " (unstable)" : "");
     std::printf("\n");
   }
   if (nobj > 1) {
@@ -572,6 +576,50 @@ void print_summary(const SegmentRequest& rq, const EngineRun& run, const std::ve
                 static_cast<unsigned long long>(shared_voxels), shared_voxels == 1 ? "" : "s",
                 rq.regions_path.empty() ? "" : "; regions in ", rq.regions_path.c_str());
   }
+}
+
+// --seed-check (seed_check.h): the request run again from each perturbation
+// of its spheres, each object's mask compared with the result's; a line per
+// object on stderr (with --quiet too when it falls below the floor).
+SeedCheck run_seed_check(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, const EngineRun& run,
+                         const std::vector<ObjectResult>& res) {
+  const uint32_t nobj = rq.objects();
+  if (!rq.quiet)
+    std::fprintf(stderr, "ffseg: seed check: segmenting again from %u perturbed copies of the sphere%s\n",
+                 kSeedVariants, nobj > 1 ? "s" : "");
+  std::vector<std::vector<uint8_t>> result(nobj);
+  for (uint32_t k = 0; k < nobj; ++k) result[k] = res[k].mask;
+  const SeedCheck sc = check_seeds(rq, run.centres_mm, result, [&](const SegmentRequest& q) {
+    EngineRun r;
+    run_engine(q, img, &r);
+    std::vector<ObjectResult> rr = read_results(r.ws.e, img, q.objects(), r.centres_mm);
+    std::vector<std::vector<uint8_t>> masks(rr.size());
+    for (size_t k = 0; k < rr.size(); ++k) masks[k] = std::move(rr[k].mask);
+    return masks;
+  });
+  for (uint32_t v = 0; v < kSeedVariants; ++v)
+    if (!sc.failed[v].empty())
+      std::fprintf(stderr, "ffseg: warning: seed check: the run from %s failed: %s\n", kSeedVariant[v].name,
+                   sc.failed[v].c_str());
+  for (uint32_t k = 0; k < nobj; ++k) {
+    double lo = 1, hi = 0;
+    const char* worst = "";
+    for (uint32_t v = 0; v < kSeedVariants; ++v) {
+      const double d = sc.dice[k][v];
+      if (d < 0) continue;
+      if (d <= lo) lo = d, worst = kSeedVariant[v].name;
+      hi = std::max(hi, d);
+    }
+    const bool below = sc.lowest(k) < kSeedCheckFloor;
+    if (below)
+      std::fprintf(stderr, "ffseg: warning: seed check: %s agrees with the perturbed runs at Dice %.3f-%.3f, below %.2f "
+                   "(from the sphere's %s): the contour depends on where the sphere was put; check it, or place the "
+                   "sphere elsewhere in the organ\n", rq.names[k].c_str(), lo, hi, kSeedCheckFloor, worst);
+    else if (!rq.quiet)
+      std::fprintf(stderr, "ffseg: seed check: %s agrees with the perturbed runs at Dice %.3f-%.3f\n",
+                   rq.names[k].c_str(), lo, hi);
+  }
+  return sc;
 }
 
 }  // namespace
@@ -604,6 +652,8 @@ int cmd_segment(int argc, char** argv) {
     shared_voxels += res[k].shared_voxels;
   }
   refuse_degenerate(rq, run, res, img.voxel_count());
+  SeedCheck seeds;
+  if (rq.seed_check) seeds = run_seed_check(rq, img, run, res);
   ffseg_tools::NiftiImage regions_map;
   if (!rq.regions_path.empty()) regions_map = region_label_map(run.ws.e, img, rq.labels);
   check_interrupted();
@@ -635,7 +685,8 @@ int cmd_segment(int argc, char** argv) {
     fail(kExitFailure, err);
   check_interrupted();
 
-  const ffseg_tools::Json rep = make_report(argc, argv, rq, in, run, res, mesh_files, window, shared_voxels, times);
+  ffseg_tools::Json rep = make_report(argc, argv, rq, in, run, res, mesh_files, window, shared_voxels, times);
+  if (rq.seed_check) rep.set("seed_check", seed_check_json(seeds, rq.names));
   if (!write_text_file(tmp.path + "/report.json", rep.dump(), &err)) fail(kExitFailure, err);
   check_interrupted();
 

@@ -79,6 +79,7 @@ struct SegmentRequest {
   bool have_labels_format = false;
   ffseg_tools::ImageFormat labels_format = ffseg_tools::ImageFormat::Nifti;
   bool force = false, quiet = false;
+  bool seed_check = false;         // --seed-check (seed_check.h)
   bool out_nonempty = false;       // --out exists with files in it (and --force replaces them)
   std::string out_parent;
   uint32_t objects() const { return uint32_t(spheres.size()); }

@@ -1,0 +1,97 @@
+// `ffseg segment --seed-check` (seed_check.h).
+#include "seed_check.h"
+
+#include <algorithm>
+
+#include "cli.h"
+
+namespace ffseg_cli {
+
+const SeedVariant kSeedVariant[kSeedVariants] = {
+    {"radius x0.6", 0.6, {0, 0, 0}},
+    {"radius x1.5", 1.5, {0, 0, 0}},
+    {"centre +1 mm x", 1, {1, 0, 0}},
+    {"centre +1 mm y", 1, {0, 1, 0}},
+    {"centre +1 mm z", 1, {0, 0, 1}},
+};
+
+SegmentRequest perturbed_request(const SegmentRequest& rq, const std::vector<std::array<double, 3>>& centres_mm,
+                                 const SeedVariant& v) {
+  SegmentRequest q = rq;
+  q.quiet = true;
+  for (uint32_t k = 0; k < q.objects(); ++k) {
+    SphereArg& s = q.spheres[k];
+    for (int a = 0; a < 3; ++a) s.c[a] = centres_mm[k][a] + v.shift_mm[a];
+    s.c[3] *= v.radius_scale;
+    s.voxel = false;
+  }
+  return q;
+}
+
+double mask_dice(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
+  const size_t n = std::min(a.size(), b.size());
+  size_t both = 0, na = 0, nb = 0;
+  for (size_t i = 0; i < n; ++i) {
+    both += a[i] && b[i];
+    na += a[i] != 0;
+    nb += b[i] != 0;
+  }
+  return na + nb == 0 ? 1.0 : 2.0 * double(both) / double(na + nb);
+}
+
+double SeedCheck::lowest(uint32_t k) const {
+  double m = 1;
+  for (double d : dice[k])
+    if (d >= 0) m = std::min(m, d);
+  return m;
+}
+
+SeedCheck check_seeds(const SegmentRequest& rq, const std::vector<std::array<double, 3>>& centres_mm,
+                      const std::vector<std::vector<uint8_t>>& result,
+                      const std::function<std::vector<std::vector<uint8_t>>(const SegmentRequest&)>& segment) {
+  SeedCheck sc;
+  sc.dice.assign(rq.objects(), {});
+  for (uint32_t v = 0; v < kSeedVariants; ++v) {
+    std::vector<std::vector<uint8_t>> masks;
+    try {
+      masks = segment(perturbed_request(rq, centres_mm, kSeedVariant[v]));
+    } catch (const CliError& e) {
+      if (e.code == kExitInterrupted) throw;
+      sc.failed[v] = e.message;
+    }
+    for (uint32_t k = 0; k < rq.objects(); ++k)
+      sc.dice[k][v] = sc.failed[v].empty() && k < masks.size() ? mask_dice(masks[k], result[k]) : -1.0;
+  }
+  return sc;
+}
+
+ffseg_tools::Json seed_check_json(const SeedCheck& sc, const std::vector<std::string>& names) {
+  using ffseg_tools::Json;
+  Json j = Json::object();
+  Json variants = Json::array();
+  for (uint32_t v = 0; v < kSeedVariants; ++v) {
+    Json o = Json::object();
+    o.set("name", kSeedVariant[v].name);
+    o.set("radius_scale", kSeedVariant[v].radius_scale);
+    o.set("shift_mm", Json::array_of(kSeedVariant[v].shift_mm, 3));
+    if (!sc.failed[v].empty()) o.set("failed", sc.failed[v]);
+    variants.push(std::move(o));
+  }
+  j.set("variants", std::move(variants));
+  j.set("floor", kSeedCheckFloor);
+  Json objects = Json::array();
+  for (uint32_t k = 0; k < sc.dice.size(); ++k) {
+    Json o = Json::object();
+    o.set("name", names[k]);
+    Json d = Json::array();
+    for (double x : sc.dice[k]) d.push(x >= 0 ? Json(x) : Json());
+    o.set("dice", std::move(d));
+    o.set("lowest_dice", sc.lowest(k));
+    o.set("below_floor", sc.lowest(k) < kSeedCheckFloor);
+    objects.push(std::move(o));
+  }
+  j.set("objects", std::move(objects));
+  return j;
+}
+
+}  // namespace ffseg_cli
