@@ -65,7 +65,7 @@ demo: deps
 	$(MAKE) build
 	mkdir -p $(DEMO_OUT)
 	./$(BUILD)/ffseg segment $(MRI)/ch2.nii.gz --sphere-from-label $(MRI)/aal.nii.gz:73 \
-	  --truth $(MRI)/aal.nii.gz --truth-labels 73 --names putamen_L --out $(DEMO_OUT)/putamen_L --force --seed-check
+	  --truth $(MRI)/aal.nii.gz --truth-labels 73 --names putamen_L --out $(DEMO_OUT)/putamen_L --force --consensus
 	./$(BUILD)/ffseg segment $(MRI)/ch2bet.nii.gz --target binary --sphere 0,-17,19,80 \
 	  --names brain --out $(DEMO_OUT)/brain --force
 	@echo; echo "demo: the eight deep nuclei (AAL $(NUCLEI_LABELS)) together in one engine"

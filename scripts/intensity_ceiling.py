@@ -23,9 +23,7 @@ try:
 except ImportError:
     sys.exit("intensity_ceiling: needs python3-nibabel (make deps)")
 
-MRI = "/usr/share/mricron/templates"
-STRUCTURES = [(73, "putamen L"), (74, "putamen R"), (77, "thalamus L"), (78, "thalamus R"),
-              (71, "caudate L"), (72, "caudate R"), (37, "hippocampus L"), (38, "hippocampus R")]
+from colin27_protocol import MRI, STRUCTURES  # noqa: E402 (scripts/colin27_protocol.py)
 
 
 def dilate(mask, r):

@@ -565,6 +565,11 @@ void print_summary(const SegmentRequest& rq, const EngineRun& run, const std::ve
     if (const ffseg_tools::Json* sc = rep.get("seed_check"))
       std::printf("  seed check %.3f%s", (*sc->get("objects"))[k].get("lowest_dice")->as_number(),
                   (*sc->get("objects"))[k].get("below_floor")->as_bool() ? " (unstable)" : "");
+    if (const ffseg_tools::Json* c = rep.get("consensus")) {
+      const ffseg_tools::Json& co = (*c->get("objects"))[k];
+      std::printf("  consensus %.3f ml", co.get("volume_ml")->as_number());
+      if (const ffseg_tools::Json* m = co.get("metrics")) std::printf(" dice %.4f", m->get("dice")->as_number());
+    }
     std::printf("\n");
   }
   if (nobj > 1) {
@@ -578,11 +583,43 @@ void print_summary(const SegmentRequest& rq, const EngineRun& run, const std::ve
   }
 }
 
+// report.json's "consensus": the file, the votes needed and, per object, its
+// voxels, volume and (with --truth) metrics, as the objects' own.
+ffseg_tools::Json consensus_json(const SegmentRequest& rq, const Inputs& in, const SeedCheck& seeds,
+                                 const std::vector<ObjectResult>& consensus, const std::string& file) {
+  using ffseg_tools::Json;
+  const ffseg_tools::NiftiImage& img = in.img;
+  Json j = Json::object();
+  j.set("file", file);
+  j.set("runs", seeds.runs);
+  j.set("share", kConsensusShare);
+  Json objects = Json::array();
+  for (uint32_t k = 0; k < rq.objects(); ++k) {
+    const std::vector<uint8_t>& m = consensus[k].mask;
+    Json o = Json::object();
+    o.set("name", rq.names[k]);
+    const uint64_t voxels = uint64_t(std::count(m.begin(), m.end(), uint8_t(1)));
+    o.set("voxels", voxels);
+    o.set("volume_ml", double(voxels) * voxel_volume_mm3(img) / 1000.0);
+    if (!in.truth_masks.empty()) {
+      check_interrupted();
+      const MaskMetrics mm = compare_masks_cropped(m.data(), in.truth_masks[k].data(), img.dims, img.spacing);
+      Json mj = Json::object();
+      mj.set("truth_label", rq.labels[k]);
+      set_metric_fields(mj, mm);
+      o.set("metrics", std::move(mj));
+    }
+    objects.push(std::move(o));
+  }
+  j.set("objects", std::move(objects));
+  return j;
+}
+
 // --seed-check (seed_check.h): the request run again from each perturbation
 // of its spheres, each object's mask compared with the result's; a line per
 // object on stderr (with --quiet too when it falls below the floor).
 SeedCheck run_seed_check(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, const EngineRun& run,
-                         const std::vector<ObjectResult>& res) {
+                         const std::vector<ObjectResult>& res, std::vector<std::vector<uint8_t>>* votes) {
   const uint32_t nobj = rq.objects();
   if (!rq.quiet)
     std::fprintf(stderr, "ffseg: seed check: segmenting again from %u perturbed copies of the sphere%s\n",
@@ -596,7 +633,7 @@ SeedCheck run_seed_check(const SegmentRequest& rq, const ffseg_tools::NiftiImage
     std::vector<std::vector<uint8_t>> masks(rr.size());
     for (size_t k = 0; k < rr.size(); ++k) masks[k] = std::move(rr[k].mask);
     return masks;
-  });
+  }, votes);
   for (uint32_t v = 0; v < kSeedVariants; ++v)
     if (!sc.failed[v].empty())
       std::fprintf(stderr, "ffseg: warning: seed check: the run from %s failed: %s\n", kSeedVariant[v].name,
@@ -653,7 +690,16 @@ int cmd_segment(int argc, char** argv) {
   }
   refuse_degenerate(rq, run, res, img.voxel_count());
   SeedCheck seeds;
-  if (rq.seed_check) seeds = run_seed_check(rq, img, run, res);
+  std::vector<ObjectResult> consensus;  // --consensus: masks only
+  if (rq.seed_check) {
+    std::vector<std::vector<uint8_t>> votes;
+    seeds = run_seed_check(rq, img, run, res, rq.consensus ? &votes : nullptr);
+    if (rq.consensus) {
+      std::vector<std::vector<uint8_t>> masks = consensus_masks(votes, seeds.runs);
+      consensus.resize(nobj);
+      for (uint32_t k = 0; k < nobj; ++k) consensus[k].mask = std::move(masks[k]);
+    }
+  }
   ffseg_tools::NiftiImage regions_map;
   if (!rq.regions_path.empty()) regions_map = region_label_map(run.ws.e, img, rq.labels);
   check_interrupted();
@@ -677,6 +723,11 @@ int cmd_segment(int argc, char** argv) {
   const ffseg_tools::NiftiImage lab = object_label_map(img, res, rq.labels);
   if (!ffseg_tools::image_write_file(tmp.path + "/" + in.labels_file, in.labels_format, lab, &err))
     fail(kExitFailure, err);
+  const std::string consensus_file = "consensus" + in.labels_file.substr(in.labels_file.find('.'));
+  if (rq.consensus &&
+      !ffseg_tools::image_write_file(tmp.path + "/" + consensus_file, in.labels_format,
+                                     object_label_map(img, consensus, rq.labels), &err))
+    fail(kExitFailure, err);
   check_interrupted();
 
   double window[2] = {rq.window[0], rq.window[1]};
@@ -687,6 +738,7 @@ int cmd_segment(int argc, char** argv) {
 
   ffseg_tools::Json rep = make_report(argc, argv, rq, in, run, res, mesh_files, window, shared_voxels, times);
   if (rq.seed_check) rep.set("seed_check", seed_check_json(seeds, rq.names));
+  if (rq.consensus) rep.set("consensus", consensus_json(rq, in, seeds, consensus, consensus_file));
   if (!write_text_file(tmp.path + "/report.json", rep.dump(), &err)) fail(kExitFailure, err);
   check_interrupted();
 

@@ -48,9 +48,12 @@ double SeedCheck::lowest(uint32_t k) const {
 
 SeedCheck check_seeds(const SegmentRequest& rq, const std::vector<std::array<double, 3>>& centres_mm,
                       const std::vector<std::vector<uint8_t>>& result,
-                      const std::function<std::vector<std::vector<uint8_t>>(const SegmentRequest&)>& segment) {
+                      const std::function<std::vector<std::vector<uint8_t>>(const SegmentRequest&)>& segment,
+                      std::vector<std::vector<uint8_t>>* votes) {
   SeedCheck sc;
   sc.dice.assign(rq.objects(), {});
+  sc.runs = 1;
+  if (votes) *votes = result;  // the result's own vote
   for (uint32_t v = 0; v < kSeedVariants; ++v) {
     std::vector<std::vector<uint8_t>> masks;
     try {
@@ -61,8 +64,32 @@ SeedCheck check_seeds(const SegmentRequest& rq, const std::vector<std::array<dou
     }
     for (uint32_t k = 0; k < rq.objects(); ++k)
       sc.dice[k][v] = sc.failed[v].empty() && k < masks.size() ? mask_dice(masks[k], result[k]) : -1.0;
+    if (!sc.failed[v].empty()) continue;
+    ++sc.runs;
+    if (votes)
+      for (uint32_t k = 0; k < rq.objects() && k < masks.size(); ++k) {
+        std::vector<uint8_t>& to = (*votes)[k];
+        for (size_t i = 0; i < to.size() && i < masks[k].size(); ++i) to[i] = uint8_t(to[i] + (masks[k][i] != 0));
+      }
   }
   return sc;
+}
+
+std::vector<std::vector<uint8_t>> consensus_masks(const std::vector<std::vector<uint8_t>>& votes, uint32_t runs) {
+  // The least whole number of votes that is at least the share of the runs.
+  uint32_t need = 1;
+  while (double(need) < kConsensusShare * double(runs) - 1e-9) ++need;
+  std::vector<std::vector<uint8_t>> out(votes.size());
+  for (size_t k = 0; k < votes.size(); ++k) {
+    out[k].assign(votes[k].size(), 0);
+    for (size_t i = 0; i < votes[k].size(); ++i) {
+      if (votes[k][i] < need) continue;
+      bool earlier = false;
+      for (size_t e = 0; e < k && !earlier; ++e) earlier = i < out[e].size() && out[e][i];
+      out[k][i] = !earlier;
+    }
+  }
+  return out;
 }
 
 ffseg_tools::Json seed_check_json(const SeedCheck& sc, const std::vector<std::string>& names) {

@@ -80,6 +80,7 @@ struct SegmentRequest {
   ffseg_tools::ImageFormat labels_format = ffseg_tools::ImageFormat::Nifti;
   bool force = false, quiet = false;
   bool seed_check = false;         // --seed-check (seed_check.h)
+  bool consensus = false;          // --consensus (seed_check.h; implies seed_check)
   bool out_nonempty = false;       // --out exists with files in it (and --force replaces them)
   std::string out_parent;
   uint32_t objects() const { return uint32_t(spheres.size()); }
