@@ -1082,6 +1082,21 @@ TEST_CASE("cli: --seed-check segments again from five perturbed spheres and warn
   const std::vector<double> d = dice_of(parse_json(slurp(s / "near/report.json")));
   CHECK(d[1] < 0.85);
   CHECK(d[0] >= 0.95);  // the 0.6x sphere stays in the first ball
+  // A perturbed sphere that leaves the grid (+1 mm x past its last voxel
+  // centre) is reported as failed, with a warning; the others still count.
+  const Balls edge = make_balls({{20, 27, 12, 10}}, {1});
+  write(s / "edge.nii.gz", edge.image);
+  const Run e = ffseg(s, "segment " + (s / "edge.nii.gz") +
+                             " --target binary --sphere 27.3,27,12,0.8 --consensus --quiet --out " + (s / "edge"));
+  INFO("stderr: " << e.err);
+  REQUIRE(e.code == 0);
+  CHECK(e.err.find("warning: seed check: the run from centre +1 mm x failed: object 1 (--sphere 28.3,27,12,0.8, the "
+                   "centre +1 mm x): the sphere does not meet the volume grid") != std::string::npos);
+  const Json er = parse_json(slurp(s / "edge/report.json"));
+  const Json& variants = *er.get("seed_check")->get("variants");
+  for (size_t v = 0; v < 5; ++v) CHECK((variants[v].get("failed") != nullptr) == (v == 2));
+  CHECK((*(*er.get("seed_check")->get("objects"))[0].get("dice"))[2].is_null());
+  CHECK(er.get("consensus")->get("runs")->as_number() == 5);
   // Without the option the report has no seed_check.
   REQUIRE(ffseg(s, "segment " + (s / "two.nii.gz") + " --target binary --sphere -6,27,12,3 --quiet --out " + (s / "plain"))
               .code == 0);

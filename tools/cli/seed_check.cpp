@@ -2,6 +2,7 @@
 #include "seed_check.h"
 
 #include <algorithm>
+#include <cstdio>
 
 #include "cli.h"
 
@@ -24,6 +25,9 @@ SegmentRequest perturbed_request(const SegmentRequest& rq, const std::vector<std
     for (int a = 0; a < 3; ++a) s.c[a] = centres_mm[k][a] + v.shift_mm[a];
     s.c[3] *= v.radius_scale;
     s.voxel = false;
+    char text[160];
+    std::snprintf(text, sizeof text, "--sphere %g,%g,%g,%g, the %s", s.c[0], s.c[1], s.c[2], s.c[3], v.name);
+    s.text = text;
   }
   return q;
 }
