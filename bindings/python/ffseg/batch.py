@@ -8,8 +8,10 @@ MANIFEST.csv has a header row with the columns
     volume             the image (NIfTI, NRRD, MetaImage, or a DICOM series directory)
     spheres            objects as x,y,z,r in world mm, separated by ';'
     sphere_from_label  objects as LABELS:L (the PEERS protocol sphere), separated by ';'
-and optionally target (intensity or binary), mesh_resolution, truth (a label map)
-and truth_labels (its label per object, separated by ';' or ','). Every case
+and optionally target (intensity or binary), mesh_resolution, truth (a label map),
+truth_labels (its label per object, separated by ';' or ',') and check (seed:
+`--seed-check`, how far each contour moves under five perturbed spheres;
+consensus: `--consensus`, that and consensus.* from the six runs). Every case
 needs spheres or sphere_from_label (both: the spheres first). Relative paths are
 relative to the manifest's folder.
 
@@ -17,7 +19,10 @@ Each case runs `ffseg segment` on a worker and writes what it writes into
 DIR/CASE/ (meshes, label map, overlay.png, report.json); DIR/summary.csv gets one
 row per case: status (ok, failed, or skipped when DIR/CASE/report.json is there
 from an earlier run; --force runs it again), objects, volume_ml and dice per
-object (';'-separated), steps, converged, seconds, error. A case that fails (an
+object (';'-separated), steps, converged, seconds, error, output, and with a
+check seed_check (each object's lowest Dice against its perturbed runs; below
+0.85 the contour depends on where the sphere was put) and consensus_dice
+(with a truth map and check=consensus). A case that fails (an
 unreadable file, an engine error, a lost worker, the timeout) is recorded and
 the others go on. Without --scheduler a local cluster of --workers processes
 (default 2, one thread each) is started; with --scheduler the workers must see
@@ -35,9 +40,10 @@ import sys
 import time
 
 COLUMNS = ("case", "volume", "spheres", "sphere_from_label", "target", "mesh_resolution", "truth",
-           "truth_labels")
+           "truth_labels", "check")
 SUMMARY = ("case", "status", "objects", "volume_ml", "dice", "steps", "converged", "seconds", "error",
-           "output")
+           "output", "seed_check", "consensus_dice")
+_CHECKS = {"seed": "--seed-check", "consensus": "--consensus"}
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}$")
 
 
@@ -98,6 +104,11 @@ def _case_args(row, base):
         if not (row.get("truth") or "").strip():
             raise ValueError("truth_labels needs a truth column")
         args += ["--truth-labels", ",".join(x.strip() for x in re.split("[;,]", row["truth_labels"]) if x.strip())]
+    check = (row.get("check") or "").strip()
+    if check:
+        if check not in _CHECKS:
+            raise ValueError(f"check: '{check}' is not one of {', '.join(_CHECKS)}")
+        args.append(_CHECKS[check])
     return args
 
 
@@ -146,16 +157,26 @@ def read_manifest(path):
 def summary_from_report(case, status, report, seconds, outdir):
     objs = report.get("objects", [])
     dice = [o.get("metrics", {}).get("dice") for o in objs]
+    seeds = (report.get("seed_check") or {}).get("objects", [])
+    cons = [o.get("metrics", {}).get("dice") for o in (report.get("consensus") or {}).get("objects", [])]
     return {"case": case, "status": status, "objects": len(objs),
             "volume_ml": ";".join("%.4f" % o["volume_ml"] for o in objs),
-            "dice": ";".join("" if d is None else "%.4f" % d for d in dice) if any(d is not None for d in dice) else "",
-            "steps": report.get("steps", ""), "converged": report.get("converged", ""),
-            "seconds": "%.2f" % seconds, "error": "", "output": outdir}
+            "dice": _joined(dice), "steps": report.get("steps", ""), "converged": report.get("converged", ""),
+            "seconds": "%.2f" % seconds, "error": "", "output": outdir,
+            "seed_check": _joined([o.get("lowest_dice") for o in seeds]), "consensus_dice": _joined(cons)}
+
+
+def _joined(values):
+    """';'-joined with 4 decimals, '' for a missing one; '' when all are missing."""
+    if not any(v is not None for v in values):
+        return ""
+    return ";".join("" if v is None else "%.4f" % v for v in values)
 
 
 def failed(case, error, seconds=0.0, outdir=""):
     return {"case": case, "status": "failed", "objects": "", "volume_ml": "", "dice": "", "steps": "",
-            "converged": "", "seconds": "%.2f" % seconds, "error": error, "output": outdir}
+            "converged": "", "seconds": "%.2f" % seconds, "error": error, "output": outdir, "seed_check": "",
+            "consensus_dice": ""}
 
 
 def run_case(case, args, out, cli, timeout=None):

@@ -48,7 +48,7 @@ def cohort(tmp_path_factory):
         nibabel.save(nibabel.Nifti1Image((vol * 7).astype(np.uint8), A), str(d / f"truth{n}.nii.gz"))
         rows.append({"case": f"case{n}", "volume": name, "spheres": "%g,%g,%g,2" % tuple(world),
                      "target": "binary", "mesh_resolution": "8", "truth": f"truth{n}.nii.gz",
-                     "truth_labels": "7"})
+                     "truth_labels": "7", "check": ["consensus", "seed", ""][n]})
     good = (d / "a.nii.gz").read_bytes()
     (d / "corrupt.nii.gz").write_bytes(good[: len(good) // 3])  # a truncated gzip stream
     rows.append({"case": "corrupt", "volume": "corrupt.nii.gz", "spheres": rows[0]["spheres"],
@@ -97,6 +97,17 @@ def test_batch_on_a_local_cluster_then_reruns(cohort, tmp_path):
         assert lab in files
         rep = json.load(open(os.path.join(out, f"case{n}", "report.json")))
         assert "%.4f" % rep["objects"][0]["metrics"]["dice"] == rows[f"case{n}"]["dice"]
+    # check=consensus (case0) and check=seed (case1): a ball is found from every perturbed sphere.
+    for n, check in enumerate(["consensus", "seed", ""]):
+        r = rows[f"case{n}"]
+        if check:
+            assert float(r["seed_check"]) >= 0.85, r
+        else:
+            assert r["seed_check"] == "", r
+        assert (r["consensus_dice"] != "") == (check == "consensus"), r
+    assert float(rows["case0"]["consensus_dice"]) > 0.85
+    assert os.path.exists(os.path.join(out, "case0", "consensus.nii.gz"))
+    assert not os.path.exists(os.path.join(out, "case1", "consensus.nrrd"))
     assert not os.path.exists(os.path.join(out, "corrupt"))
     print(f"batch of 5 cases on 2 local workers: {wall:.1f} s wall")
 
@@ -189,3 +200,14 @@ def test_batch_on_a_scheduler_and_workers_started_apart(cohort, tmp_path):
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()
+
+
+def test_the_check_column_passes_the_seed_check_or_refuses_the_case(tmp_path):
+    m = tmp_path / "m.csv"
+    m.write_text('case,volume,spheres,check\nx,a.nii.gz,"1,2,3,4",consensus\ny,a.nii.gz,"1,2,3,4",seed\n'
+                 'z,a.nii.gz,"1,2,3,4",\nw,a.nii.gz,"1,2,3,4",twice\n')
+    got = {case: (args, err) for case, _, args, err in batch.read_manifest(str(m))}
+    assert "--consensus" in got["x"][0] and "--seed-check" not in got["x"][0]
+    assert "--seed-check" in got["y"][0]
+    assert "--consensus" not in got["z"][0] and "--seed-check" not in got["z"][0]
+    assert got["w"][0] is None and "check: 'twice' is not one of seed, consensus" in got["w"][1]
