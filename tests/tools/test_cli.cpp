@@ -1082,6 +1082,20 @@ TEST_CASE("cli: --seed-check segments again from five perturbed spheres and warn
   const std::vector<double> d = dice_of(parse_json(slurp(s / "near/report.json")));
   CHECK(d[1] < 0.85);
   CHECK(d[0] >= 0.95);  // the 0.6x sphere stays in the first ball
+  // The runs on several threads at once give the same figures as one after
+  // the other; --jobs 0 is a usage error.
+  for (const char* jobs : {"1", "3"}) {
+    const std::string out = s / (std::string("near_j") + jobs);
+    REQUIRE(ffseg(s, "segment " + (s / "two.nii.gz") + " --target binary --sphere 0,27,12,5 --consensus --quiet --jobs " +
+                         jobs + " --out " + out)
+                .code == 0);
+    const Json j = parse_json(slurp(out + "/report.json"));
+    CHECK(j.get("seed_check")->dump() == parse_json(slurp(s / "near/report.json")).get("seed_check")->dump());
+    CHECK(slurp(out + "/consensus.nii.gz") == slurp(s / "near_j1/consensus.nii.gz"));
+  }
+  CHECK(ffseg(s, "segment " + (s / "two.nii.gz") + " --target binary --sphere 0,27,12,5 --seed-check --jobs 0 --out " +
+                     (s / "j0"))
+            .code == 2);
   // A perturbed sphere that leaves the grid (+1 mm x past its last voxel
   // centre) is reported as failed, with a warning; the others still count.
   const Balls edge = make_balls({{20, 27, 12, 10}}, {1});

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <thread>
 
 #include "cli.h"
 #include "engine_volume.h"
@@ -633,7 +634,7 @@ SeedCheck run_seed_check(const SegmentRequest& rq, const ffseg_tools::NiftiImage
     std::vector<std::vector<uint8_t>> masks(rr.size());
     for (size_t k = 0; k < rr.size(); ++k) masks[k] = std::move(rr[k].mask);
     return masks;
-  }, votes);
+  }, votes, rq.jobs ? rq.jobs : std::max(1u, std::thread::hardware_concurrency()));
   for (uint32_t v = 0; v < kSeedVariants; ++v)
     if (!sc.failed[v].empty())
       std::fprintf(stderr, "ffseg: warning: seed check: the run from %s failed: %s\n", kSeedVariant[v].name,

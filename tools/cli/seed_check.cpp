@@ -2,7 +2,11 @@
 #include "seed_check.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
+#include <exception>
+#include <mutex>
+#include <thread>
 
 #include "cli.h"
 
@@ -53,29 +57,56 @@ double SeedCheck::lowest(uint32_t k) const {
 SeedCheck check_seeds(const SegmentRequest& rq, const std::vector<std::array<double, 3>>& centres_mm,
                       const std::vector<std::vector<uint8_t>>& result,
                       const std::function<std::vector<std::vector<uint8_t>>(const SegmentRequest&)>& segment,
-                      std::vector<std::vector<uint8_t>>* votes) {
+                      std::vector<std::vector<uint8_t>>* votes, uint32_t jobs) {
   SeedCheck sc;
   sc.dice.assign(rq.objects(), {});
   sc.runs = 1;
   if (votes) *votes = result;  // the result's own vote
-  for (uint32_t v = 0; v < kSeedVariants; ++v) {
-    std::vector<std::vector<uint8_t>> masks;
-    try {
-      masks = segment(perturbed_request(rq, centres_mm, kSeedVariant[v]));
-    } catch (const CliError& e) {
-      if (e.code == kExitInterrupted) throw;
-      sc.failed[v] = e.message;
-    }
-    for (uint32_t k = 0; k < rq.objects(); ++k)
-      sc.dice[k][v] = sc.failed[v].empty() && k < masks.size() ? mask_dice(masks[k], result[k]) : -1.0;
-    if (!sc.failed[v].empty()) continue;
-    ++sc.runs;
-    if (votes)
-      for (uint32_t k = 0; k < rq.objects() && k < masks.size(); ++k) {
-        std::vector<uint8_t>& to = (*votes)[k];
-        for (size_t i = 0; i < to.size() && i < masks[k].size(); ++i) to[i] = uint8_t(to[i] + (masks[k][i] != 0));
+  std::mutex mu;                // guards sc, *votes and stop
+  std::exception_ptr stop;      // an interrupt (or anything else unexpected): rethrown once all have ended
+  std::atomic<uint32_t> next{0};
+  auto work = [&] {
+    for (uint32_t v; (v = next++) < kSeedVariants;) {
+      std::vector<std::vector<uint8_t>> masks;
+      std::string failed;
+      try {
+        {
+          std::lock_guard<std::mutex> lock(mu);
+          if (stop) return;
+        }
+        masks = segment(perturbed_request(rq, centres_mm, kSeedVariant[v]));
+      } catch (const CliError& e) {
+        if (e.code == kExitInterrupted) {
+          std::lock_guard<std::mutex> lock(mu);
+          if (!stop) stop = std::current_exception();
+          return;
+        }
+        failed = e.message.empty() ? "failed" : e.message;
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mu);
+        if (!stop) stop = std::current_exception();
+        return;
       }
-  }
+      std::vector<double> d(rq.objects(), -1.0);
+      for (uint32_t k = 0; k < rq.objects(); ++k)
+        if (failed.empty() && k < masks.size()) d[k] = mask_dice(masks[k], result[k]);
+      std::lock_guard<std::mutex> lock(mu);
+      sc.failed[v] = failed;
+      for (uint32_t k = 0; k < rq.objects(); ++k) sc.dice[k][v] = d[k];
+      if (!failed.empty()) continue;
+      ++sc.runs;
+      if (votes)
+        for (uint32_t k = 0; k < rq.objects() && k < masks.size(); ++k) {
+          std::vector<uint8_t>& to = (*votes)[k];
+          for (size_t i = 0; i < to.size() && i < masks[k].size(); ++i) to[i] = uint8_t(to[i] + (masks[k][i] != 0));
+        }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t t = 1; t < std::min(std::max(jobs, 1u), kSeedVariants); ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  if (stop) std::rethrow_exception(stop);
   return sc;
 }
 

@@ -63,11 +63,13 @@ struct SeedCheck {
 // failed, except an interrupt, which goes on up) and compares the masks
 // with `result` (the masks of the run being checked). votes (may be null):
 // per object and voxel, in how many runs (the result's included) the voxel
-// was inside the object.
+// was inside the object. The variants run on `jobs` threads at once (each
+// run is its own engine in its own workspace, so memory grows with jobs);
+// the figures do not depend on jobs or on the order the runs finish in.
 SeedCheck check_seeds(const SegmentRequest& rq, const std::vector<std::array<double, 3>>& centres_mm,
                       const std::vector<std::vector<uint8_t>>& result,
                       const std::function<std::vector<std::vector<uint8_t>>(const SegmentRequest&)>& segment,
-                      std::vector<std::vector<uint8_t>>* votes = nullptr);
+                      std::vector<std::vector<uint8_t>>* votes = nullptr, uint32_t jobs = 1);
 
 // Each object's consensus mask from the votes of `runs` runs (kConsensusShare),
 // every voxel given to the first object that holds it, as in labels.nii.gz.

@@ -250,6 +250,8 @@ const char* const kSegmentUsageText =
     "                          as labels): each object's voxels inside its mesh in at least 5\n"
     "                          of the 6 runs, a result that depends far less on the sphere;\n"
     "                          report.json: consensus (volumes, metrics with --truth)\n"
+    "  -j, --jobs N            the seed check's runs at once, each an engine of its own (memory\n"
+    "                          grows with N; default: the CPU count, at most 5)\n"
     "\n"
     "examples:\n"
     "  ffseg segment ch2bet.nii.gz --target binary --sphere 0,-17,19,60 --out brain\n"
@@ -368,6 +370,8 @@ SegmentRequest parse_segment_request(int argc, char** argv) {
       rq.seed_check = true;
     } else if (tok == "--consensus") {
       rq.consensus = rq.seed_check = true;
+    } else if (tok == "--jobs" || tok == "-j") {
+      rq.jobs = uint32_t(parse_int(args.value(tok), tok, 1, 1024));
     } else if (tok == "--window") {
       const std::string v = args.value(tok);
       const size_t comma = v.find(',');

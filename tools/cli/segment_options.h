@@ -81,6 +81,7 @@ struct SegmentRequest {
   bool force = false, quiet = false;
   bool seed_check = false;         // --seed-check (seed_check.h)
   bool consensus = false;          // --consensus (seed_check.h; implies seed_check)
+  uint32_t jobs = 0;               // --jobs: the seed check's runs at once; 0: the CPU count
   bool out_nonempty = false;       // --out exists with files in it (and --force replaces them)
   std::string out_parent;
   uint32_t objects() const { return uint32_t(spheres.size()); }
