@@ -1206,3 +1206,41 @@ TEST_CASE("cli: --consensus on Colin27's thalamus R: the six seeds of issue 19 a
       CHECK(2.0 * double(both) / double(na + nb) >= 0.85);
     }
 }
+
+TEST_CASE("cli: --consensus with two objects: one consensus per object, each voxel labelled once, as labels") {
+  Scratch s;
+  const Balls b = make_balls({{-6, 27, 12, 8}, {14, 27, 12, 8}}, {1, 2});
+  write(s / "two.nii.gz", b.image);
+  write(s / "truth.nii.gz", b.truth);
+  const Run r = ffseg(s, "segment " + (s / "two.nii.gz") + " --target binary --sphere 14,27,12,3 --sphere -6,27,12,3 " +
+                             "--truth " + (s / "truth.nii.gz") + " --truth-labels 2,1 --consensus --quiet --out " +
+                             (s / "o"));
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  NiftiImage cons;
+  std::string err;
+  REQUIRE_MESSAGE(nifti_read_file(s / "o/consensus.nii.gz", &cons, &err), err);
+  REQUIRE(cons.data.size() == b.truth.data.size());
+  size_t hit[2] = {0, 0}, got[2] = {0, 0}, ball[2] = {0, 0}, other = 0;
+  for (size_t i = 0; i < cons.data.size(); ++i) {
+    const int want = b.truth.data[i];  // 1, 2 or 0
+    const int k = cons.data[i] == 1 ? 0 : cons.data[i] == 2 ? 1 : -1;
+    if (cons.data[i] != 0 && k < 0) ++other;
+    if (k >= 0) ++got[k];
+    if (want) ++ball[want - 1];
+    if (k >= 0 && want == k + 1) ++hit[k];
+  }
+  CHECK(other == 0);  // only the objects' labels (object 1 is ball 2, object 2 ball 1)
+  for (int k = 0; k < 2; ++k) {
+    CAPTURE(k);
+    CHECK(2.0 * double(hit[k]) / double(got[k] + ball[k]) >= 0.9);
+  }
+  const Json rep = parse_json(slurp(s / "o/report.json"));
+  const Json& objs = *rep.get("consensus")->get("objects");
+  REQUIRE(objs.size() == 2);
+  // Object 1 holds label 2 (ball 2), object 2 label 1 (ball 1); the report's
+  // metrics are the consensus map's.
+  CHECK(objs[0].get("voxels")->as_number() == double(got[1]));
+  CHECK(objs[1].get("voxels")->as_number() == double(got[0]));
+  CHECK(std::fabs(objs[0].get("metrics")->get("dice")->as_number() - 2.0 * double(hit[1]) / double(got[1] + ball[1])) < 1e-9);
+}
