@@ -23,6 +23,47 @@
 
 using namespace ffseg_test;
 
+namespace {
+
+// One object on a binary volume (img: its non-zero voxels), from the sphere
+// (c, r mm) at mesh resolution n, stepped to rest or max_steps with every
+// step watched for crossings and flips; its rasterised mask against truth.
+struct BinaryRun {
+  ffseg_tools::SegMetrics m{};
+  int steps = 0;                          // taken, the converging one included
+  size_t intersections = 0, flips = 0;    // worst over the steps
+};
+
+BinaryRun run_binary(const ffseg_tools::NiftiImage& img, const std::vector<uint8_t>& truth, uint32_t n,
+                     const double c[3], double r, int max_steps) {
+  EngineBox eb(1, n);
+  REQUIRE(eb.e != nullptr);
+  ffseg_params p;
+  ffseg_params_init_default(&p);
+  p.target_mode = FFSEG_TARGET_BINARY;
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  ffseg_volume v = volume_of(img);
+  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
+  REQUIRE(ffseg_init_sphere(eb.e, 0, c, r) == FFSEG_OK);
+  ffseg_test::MeshWatch watch;
+  BinaryRun b;
+  while (b.steps < max_steps) {
+    const ffseg_status st = ffseg_step(eb.e, nullptr);
+    REQUIRE(st >= 0);
+    ++b.steps;
+    REQUIRE(watch.look(eb.e, 0));
+    if (st == FFSEG_CONVERGED) break;
+  }
+  std::vector<uint8_t> mask(truth.size());
+  REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
+  b.m = ffseg_tools::compare_masks(mask.data(), truth.data(), img.dims, img.spacing);
+  b.intersections = watch.intersections;
+  b.flips = watch.flips;
+  return b;
+}
+
+}  // namespace
+
 TEST_CASE("chapter 4 on a real shape: the Colin27 brain mask (ch2bet), n = 49, Dice >= 0.93, never self-intersecting") {
   ffseg_tools::NiftiImage bet;
   std::string err;
@@ -51,31 +92,12 @@ TEST_CASE("chapter 4 on a real shape: the Colin27 brain mask (ch2bet), n = 49, D
   for (int a = 0; a < 3; ++a) r2 += 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]) * bet.spacing[a] * bet.spacing[a];
   const double radius = std::sqrt(r2) + 2.0;
 
-  EngineBox eb(1, 49);
-  REQUIRE(eb.e != nullptr);
-  ffseg_params p;
-  ffseg_params_init_default(&p);
-  p.target_mode = FFSEG_TARGET_BINARY;
-  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
-  ffseg_volume v = volume_of(bet);
-  REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
-  REQUIRE(ffseg_init_sphere(eb.e, 0, c, radius) == FFSEG_OK);
-  ffseg_test::MeshWatch watch;
-  int steps = 0;
-  for (; steps < 150; ++steps) {
-    const ffseg_status st = ffseg_step(eb.e, nullptr);
-    REQUIRE(st >= 0);
-    REQUIRE(watch.look(eb.e, 0));
-    if (st == FFSEG_CONVERGED) { ++steps; break; }
-  }
-  std::vector<uint8_t> mask(N);
-  REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
-  const ffseg_tools::SegMetrics m = ffseg_tools::compare_masks(mask.data(), truth.data(), bet.dims, bet.spacing);
+  const BinaryRun b = run_binary(bet, truth, 49, c, radius, 150);
   std::printf("ch2bet brain mask, n=49: Dice %.4f ASSD %.2f mm HD95 %.2f mm, %d steps, worst intersections %zu, flips %zu\n",
-              m.dice, m.assd_mm, m.hd95_mm, steps, watch.intersections, watch.flips);
-  CHECK(m.dice >= 0.93);
-  CHECK(watch.intersections == 0);
-  CHECK(watch.flips == 0);
+              b.m.dice, b.m.assd_mm, b.m.hd95_mm, b.steps, b.intersections, b.flips);
+  CHECK(b.m.dice >= 0.93);
+  CHECK(b.intersections == 0);
+  CHECK(b.flips == 0);
 }
 
 // The mesh's share of issue 19's gap: the eight protocol structures grown
@@ -102,32 +124,13 @@ TEST_CASE("chapter 4 on the Colin27 protocol structures: the label as its own ta
     protocol_sphere(t1, truth, c, &r);
     ffseg_tools::NiftiImage target = aal;
     target.data = truth;
-    EngineBox eb(1, 12);
-    REQUIRE(eb.e != nullptr);
-    ffseg_params p;
-    ffseg_params_init_default(&p);
-    p.target_mode = FFSEG_TARGET_BINARY;
-    REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
-    ffseg_volume v = volume_of(target);
-    REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
-    REQUIRE(ffseg_init_sphere(eb.e, 0, c, r) == FFSEG_OK);
-    ffseg_test::MeshWatch watch;
-    int steps = 0;
-    for (; steps < 200; ++steps) {
-      const ffseg_status st = ffseg_step(eb.e, nullptr);
-      REQUIRE(st >= 0);
-      REQUIRE(watch.look(eb.e, 0));
-      if (st == FFSEG_CONVERGED) break;
-    }
-    std::vector<uint8_t> mask(N);
-    REQUIRE(ffseg_rasterize(eb.e, 0, mask.data(), nullptr) == FFSEG_OK);
-    const ffseg_tools::SegMetrics m = ffseg_tools::compare_masks(mask.data(), truth.data(), aal.dims, aal.spacing);
-    std::printf("AAL %d as its own binary target, n=12: Dice %.4f ASSD %.2f mm, %d steps\n", label, m.dice, m.assd_mm,
-                steps + 1);
-    CHECK(m.dice >= 0.8);
-    CHECK(watch.intersections == 0);
-    CHECK(watch.flips == 0);
-    sum += m.dice;
+    const BinaryRun b = run_binary(target, truth, 12, c, r, 200);
+    std::printf("AAL %d as its own binary target, n=12: Dice %.4f ASSD %.2f mm, %d steps\n", label, b.m.dice,
+                b.m.assd_mm, b.steps);
+    CHECK(b.m.dice >= 0.8);
+    CHECK(b.intersections == 0);
+    CHECK(b.flips == 0);
+    sum += b.m.dice;
   }
   CHECK(sum / 8 >= 0.9);
 }

@@ -389,6 +389,21 @@ struct Times {
   std::chrono::steady_clock::time_point start, outputs0;
 };
 
+// An object's "metrics" in report.json: mask (object k's voxels) against
+// its --truth label.
+ffseg_tools::Json truth_metrics_json(const SegmentRequest& rq, const Inputs& in, uint32_t k,
+                                     const std::vector<uint8_t>& mask) {
+  check_interrupted();
+  const ffseg_tools::NiftiImage& img = in.img;
+  const MaskMetrics m = compare_masks_cropped(mask.data(), in.truth_masks[k].data(), img.dims, img.spacing);
+  ffseg_tools::Json mj = ffseg_tools::Json::object();
+  mj.set("truth_label", rq.labels[k]);
+  mj.set("truth_voxels", uint64_t(m.voxels_b));
+  mj.set("truth_volume_ml", m.vol_b_ml);
+  set_metric_fields(mj, m);
+  return mj;
+}
+
 // report.json: the request, the input, every object's sphere, mesh, volume
 // and metrics, the engine's configuration and the times.
 ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, const Inputs& in, const EngineRun& run,
@@ -434,16 +449,7 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
       if (k < FFSEG_REPORT_OBJECTS) o.set("border_vertices", r.border_vertices);  // ffseg_step_info's reach
       o.set("shared_voxels", uint64_t(r.shared_voxels));
     }
-    if (!in.truth_masks.empty()) {
-      check_interrupted();
-      const MaskMetrics m = compare_masks_cropped(r.mask.data(), in.truth_masks[k].data(), img.dims, img.spacing);
-      Json mj = Json::object();
-      mj.set("truth_label", rq.labels[k]);
-      mj.set("truth_voxels", uint64_t(m.voxels_b));
-      mj.set("truth_volume_ml", m.vol_b_ml);
-      set_metric_fields(mj, m);
-      o.set("metrics", std::move(mj));
-    }
+    if (!in.truth_masks.empty()) o.set("metrics", truth_metrics_json(rq, in, k, r.mask));
     objects.push(std::move(o));
   }
 
@@ -584,8 +590,8 @@ void print_summary(const SegmentRequest& rq, const EngineRun& run, const std::ve
   }
 }
 
-// report.json's "consensus": the file, the votes needed and, per object, its
-// voxels, volume and (with --truth) metrics, as the objects' own.
+// report.json's "consensus": the file, the runs and share that voted and, per
+// object, its voxels, volume and (with --truth) metrics, as the objects' own.
 ffseg_tools::Json consensus_json(const SegmentRequest& rq, const Inputs& in, const SeedCheck& seeds,
                                  const std::vector<ObjectResult>& consensus, const std::string& file) {
   using ffseg_tools::Json;
@@ -602,14 +608,7 @@ ffseg_tools::Json consensus_json(const SegmentRequest& rq, const Inputs& in, con
     const uint64_t voxels = uint64_t(std::count(m.begin(), m.end(), uint8_t(1)));
     o.set("voxels", voxels);
     o.set("volume_ml", double(voxels) * voxel_volume_mm3(img) / 1000.0);
-    if (!in.truth_masks.empty()) {
-      check_interrupted();
-      const MaskMetrics mm = compare_masks_cropped(m.data(), in.truth_masks[k].data(), img.dims, img.spacing);
-      Json mj = Json::object();
-      mj.set("truth_label", rq.labels[k]);
-      set_metric_fields(mj, mm);
-      o.set("metrics", std::move(mj));
-    }
+    if (!in.truth_masks.empty()) o.set("metrics", truth_metrics_json(rq, in, k, m));
     objects.push(std::move(o));
   }
   j.set("objects", std::move(objects));
@@ -648,8 +647,7 @@ SeedCheck run_seed_check(const SegmentRequest& rq, const ffseg_tools::NiftiImage
       if (d <= lo) lo = d, worst = kSeedVariant[v].name;
       hi = std::max(hi, d);
     }
-    const bool below = sc.lowest(k) < kSeedCheckFloor;
-    if (below)
+    if (lo < kSeedCheckFloor)
       std::fprintf(stderr, "ffseg: warning: seed check: %s agrees with the perturbed runs at Dice %.3f-%.3f, below %.2f "
                    "(from the sphere's %s): the contour depends on where the sphere was put; check it, or place the "
                    "sphere elsewhere in the organ\n", rq.names[k].c_str(), lo, hi, kSeedCheckFloor, worst);
