@@ -399,6 +399,26 @@ static ffseg_status sample_call(const ffseg_engine* e, const double point_mm[3],
   return to_status(en->sample(point_mm, mode, value));
 }
 
+static ffseg_status init_mesh_call(ffseg_engine* e, uint32_t object, const double center_mm[3], double radius_mm,
+                                   const float* xyz, size_t n_vertices) {
+  FFSEG_REQUIRE_ENGINE(e);
+  Engine* en = impl(e);
+  en->clear_message();
+  if (center_mm == nullptr || xyz == nullptr) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "init_mesh: %s is NULL", center_mm ? "xyz" : "center");
+    return FFSEG_ERR_NULL_POINTER;
+  }
+  // n_vertices = 6 n^2: the resolution it names.
+  const double nd = std::sqrt(double(n_vertices) / 6.0);
+  const uint64_t n = uint64_t(nd + 0.5);
+  if (n < 2 || n > 1024 || 6 * n * n != n_vertices) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen,
+                  "init_mesh: n_vertices = %zu is not 6 n^2 for a mesh resolution n in 2..1024", n_vertices);
+    return FFSEG_ERR_INVALID_ARGUMENT;
+  }
+  return to_status(en->init_mesh(object, center_mm, radius_mm, xyz, uint32_t(n)));
+}
+
 static ffseg_status init_sphere_call(ffseg_engine* e, uint32_t object, const double center_mm[3],
                                          double radius_mm) {
   FFSEG_REQUIRE_ENGINE(e);
@@ -428,7 +448,9 @@ static ffseg_status init_sphere_call(ffseg_engine* e, uint32_t object, const dou
 // Callers built against 0.3 pass an ffseg_step_info that ends after
 // stage_us; they get the fields they know, and the bytes past them are theirs.
 static const size_t kStepInfoFirstSize = offsetof(ffseg_step_info, object_flags);
-static_assert(FFSEG_OBJECT_NO_BOUNDARY == ffseg::kObjectNoBoundary && FFSEG_OBJECT_FILLS_GRID == ffseg::kObjectFillsGrid,
+static const size_t kStepInfoV04Size = offsetof(ffseg_step_info, guard_held);
+static_assert(FFSEG_OBJECT_NO_BOUNDARY == ffseg::kObjectNoBoundary && FFSEG_OBJECT_FILLS_GRID == ffseg::kObjectFillsGrid &&
+                  FFSEG_OBJECT_STALLED == ffseg::kObjectStalled,
               "object flags");
 
 static ffseg_status step_call(ffseg_engine* e, ffseg_step_info* info) {
@@ -456,11 +478,17 @@ static ffseg_status step_call(ffseg_engine* e, ffseg_step_info* info) {
       info->border_vertices[i] = r.border_vertices[i];
     }
     for (int s = 0; s < FFSEG_STAGE_COUNT; ++s) info->stage_us[s] = r.stage_us[s];
-    if (info->struct_size >= sizeof(ffseg_step_info)) {
+    if (info->struct_size >= kStepInfoV04Size) {
       for (uint32_t i = 0; i < FFSEG_REPORT_OBJECTS; ++i) info->object_flags[i] = r.object_flags[i];
       info->flags_all = r.flags_all;
       info->reserved1 = 0;
     }
+    if (info->struct_size >= sizeof(ffseg_step_info))
+      for (uint32_t i = 0; i < FFSEG_REPORT_OBJECTS; ++i) {
+        info->guard_held[i] = r.guard_held[i];
+        info->far_outward[i] = r.far_outward[i];
+        info->far_inward[i] = r.far_inward[i];
+      }
   }
   return to_status(st);
 }
@@ -543,6 +571,11 @@ FFSEG_API ffseg_status ffseg_sample(const ffseg_engine* e, const double point_mm
 FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object, const double center_mm[3],
                                          double radius_mm) {
   return finish("init_sphere", e, init_sphere_call(e, object, center_mm, radius_mm));
+}
+
+FFSEG_API ffseg_status ffseg_init_mesh(ffseg_engine* e, uint32_t object, const double center_mm[3], double radius_mm,
+                                       const float* xyz, size_t n_vertices) {
+  return finish("init_mesh", e, init_mesh_call(e, object, center_mm, radius_mm, xyz, n_vertices));
 }
 
 FFSEG_API ffseg_status ffseg_step(ffseg_engine* e, ffseg_step_info* info) {

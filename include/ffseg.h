@@ -62,7 +62,7 @@ extern "C" {
 
 /* ---- Version ------------------------------------------------------------ */
 #define FFSEG_VERSION_MAJOR 0
-#define FFSEG_VERSION_MINOR 4
+#define FFSEG_VERSION_MINOR 5
 #define FFSEG_VERSION_PATCH 0
 #define FFSEG_VERSION_NUMBER \
   (FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH)
@@ -81,7 +81,8 @@ typedef int32_t ffseg_status;
 /* ffseg_step: every object has converged (mean displacement below tolerance). */
 #define FFSEG_CONVERGED 1
 /* Since 0.4.0. ffseg_step: every object has come to rest as for
- * FFSEG_CONVERGED, but the result of at least one is no segmentation
+ * FFSEG_CONVERGED, but the result of at least one is no segmentation, or
+ * (since 0.5.0) only part of one: it stalled short of its boundary
  * (ffseg_step_info.object_flags says which and why: FFSEG_OBJECT_*). Not a
  * success, not an error: the meshes and masks can still be read. */
 #define FFSEG_DEGENERATE 2
@@ -291,6 +292,24 @@ FFSEG_API ffseg_status ffseg_sample(const ffseg_engine* e, const double point_mm
 FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object,
                                          const double center_mm[3], double radius_mm);
 
+/* Since 0.5.0. Places object `object`'s mesh from another cube-sphere mesh:
+ * xyz holds n_vertices = 6 n_src^2 vertices (3 floats each, world mm) in the
+ * order ffseg_extract_mesh writes them, from an engine of mesh resolution
+ * n_src (2..1024). Each vertex of this engine's mesh takes the source
+ * mesh's position at the same point of the cube-sphere parametrisation
+ * (bilinear over the source cells around it; n_src equal to this engine's
+ * resolution copies). The grey-level model is learned, as ffseg_init_sphere
+ * does, from the sphere (center_mm, radius_mm): give the sphere the source
+ * mesh grew from. Coarse to fine: segment at a small resolution, extract,
+ * init_mesh into an engine at the resolution wanted and step on; the fine
+ * mesh starts where the coarse one stopped instead of at the sphere. Errors:
+ * those of ffseg_init_sphere, NULL_POINTER, INVALID_ARGUMENT (n_vertices not
+ * 6 n^2 for an n in 2..1024, a non-finite vertex, a resampled mesh that
+ * crosses itself or another object). On failure the object keeps the mesh
+ * it had. */
+FFSEG_API ffseg_status ffseg_init_mesh(ffseg_engine* e, uint32_t object, const double center_mm[3],
+                                       double radius_mm, const float* xyz, size_t n_vertices);
+
 /* Per-stage timings reported by ffseg_step, in microseconds. */
 #define FFSEG_STAGE_SEARCH 0
 #define FFSEG_STAGE_FLIPS 1
@@ -316,6 +335,13 @@ FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object,
  * leak, or a sphere placed around everything). An organ that truly fills
  * that much of its scan is flagged too: crop the volume with a margin. */
 #define FFSEG_OBJECT_FILLS_GRID 2u
+/* Since 0.5.0. The object came to rest without reaching its boundary: at its
+ * first rest more than a tenth of its vertices, on balance, still had targets
+ * more than a voxel (the largest spacing) away on one side (outward: it
+ * stopped short; inward: it overshot), so the guard, the fold prevention or
+ * a creeping mean held it, not the image. Its mesh is a partial result;
+ * ffseg_step_info.far_outward / far_inward give the counts. */
+#define FFSEG_OBJECT_STALLED 4u
 
 typedef struct ffseg_step_info {
   uint32_t struct_size;   /* sizeof(ffseg_step_info) */
@@ -335,6 +361,12 @@ typedef struct ffseg_step_info {
                                                   segmentation */
   uint32_t flags_all;     /* every placed object's flags or-ed, those beyond FFSEG_REPORT_OBJECTS too */
   uint32_t reserved1;     /* written 0 */
+  /* Since 0.5.0; a caller's struct of 0.4.0, which ends before these, gets
+   * the fields above only. Per object, this step: */
+  uint32_t guard_held[FFSEG_REPORT_OBJECTS];  /* vertices the step guard held to less than half of
+                                                 their solved update (a fold, a crossing, a contact) */
+  uint32_t far_outward[FFSEG_REPORT_OBJECTS]; /* vertices whose target lay more than a voxel outward */
+  uint32_t far_inward[FFSEG_REPORT_OBJECTS];  /* ... and inward (see FFSEG_OBJECT_STALLED) */
 } ffseg_step_info;
 
 /* One deformation step of every placed object (thesis Algorithm 1). Returns

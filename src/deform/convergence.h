@@ -22,6 +22,7 @@ class Convergence {
   // Move again from where the mesh is (new parameters or volume).
   void restart() {
     converged_ = false;
+    stalled_ = false;
     refining_ = false;
     refine_steps_ = 0;
     creep_ = 0;
@@ -43,7 +44,17 @@ class Convergence {
   // Records one step's motion (mean vertex displacement, vertices moving by
   // more than moving_threshold(), out of nv) and advances the phases. Returns
   // converged().
-  bool record(const ConvergenceRule& r, double mean_displacement_mm, uint32_t moving, uint32_t nv);
+  // net_far_share: (vertices with targets more than a voxel outward - those
+  // more than a voxel inward) / nv, for stalled().
+  bool record(const ConvergenceRule& r, double mean_displacement_mm, uint32_t moving, uint32_t nv,
+              double net_far_share = 0.0);
+  // The first rest was no rest at a boundary but a stall: the mesh stood
+  // still while more than kStallShare of its vertices, on balance, still
+  // pointed more than a voxel beyond it on one side (the guard, the fold
+  // prevention or a creeping mean held it; a mesh resting at a noisy
+  // boundary has far targets on both sides that cancel). It still counts as
+  // converged (it no longer steps); the engine flags it.
+  bool stalled() const { return stalled_; }
 
  private:
   bool polish_ = false;
@@ -51,6 +62,7 @@ class Convergence {
   uint32_t refine_steps_ = 0;
   uint32_t creep_ = 0;
   bool converged_ = false;
+  bool stalled_ = false;
 };
 
 }  // namespace ffseg

@@ -19,7 +19,8 @@ namespace ffseg {
 // xs: 3 * nv scratch; share (nv doubles), mark and grow (nv bytes) are scratch; ts also carries
 // the local rounds' incremental state (each round re-tests only the faces and
 // triangles around the vertices whose share changed). Returns the mean share
-// of the update kept (1 when nothing turned, folded or crossed).
+// of the update kept (1 when nothing turned, folded or crossed); share then
+// holds each vertex's.
 // obstacles (optional): the other objects, built by build_obstacles(); then
 // every position set the guard tests must also be free of contacts with
 // them (mark_contacts()), the vertices in contact held back as the

@@ -4,9 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 
+#include "cubesphere_resample.h"
 #include "mesh_contact.h"
+#include "mesh_intersection.h"
 #include "rasterize.h"
 #include "stages.h"
 #include "triangulation.h"
@@ -169,38 +172,76 @@ Err Engine::check_object(uint32_t object, bool must_be_placed) const {
 }
 
 Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
+  const Err e = check_seed("init_sphere", object, c, r);
+  if (e != Err::ok) return e;
+  double* sphere = scratch_.tmp;
+  for (uint32_t v = 0; v < mesh_.nv; ++v)
+    for (int d = 0; d < 3; ++d) sphere[3 * v + d] = c[d] + r * mesh_.unit[3 * v + d];
+  return place("init_sphere", object, c, r, sphere);
+}
+
+Err Engine::init_mesh(uint32_t object, const double c[3], double r, const float* xyz, uint32_t n_src) {
+  const Err e = check_seed("init_mesh", object, c, r);
+  if (e != Err::ok) return e;
+  if (n_src < CubeSphere::kMinN || n_src > CubeSphere::kMaxN) {
+    std::snprintf(msg_, kMsgLen, "init_mesh: the source mesh's resolution %u is outside %u..%u", n_src,
+                  CubeSphere::kMinN, CubeSphere::kMaxN);
+    return Err::invalid_argument;
+  }
+  const size_t ns = size_t(6) * n_src * n_src;
+  for (size_t q = 0; q < 3 * ns; ++q)
+    if (!std::isfinite(xyz[q])) {
+      std::snprintf(msg_, kMsgLen, "init_mesh: vertex %zu of the source mesh is not finite", q / 3);
+      return Err::invalid_argument;
+    }
+  double* x = scratch_.tmp;
+  resample_cubesphere(mesh_, xyz, n_src, x);
+  // The source mesh need not have come from an engine: a mesh that crosses
+  // itself would void the step guard's promise from the first step.
+  if (mark_intersections(mesh_, x, scratch_.triangles, nullptr) > 0) {
+    std::snprintf(msg_, kMsgLen,
+                  "init_mesh: the mesh resampled from resolution %u to %u crosses itself (is the source a "
+                  "cube-sphere mesh in the engine's vertex order?)",
+                  n_src, mesh_.n);
+    return Err::invalid_argument;
+  }
+  return place("init_mesh", object, c, r, x);
+}
+
+Err Engine::check_seed(const char* call, uint32_t object, const double c[3], double r) {
   const Err oe = check_object(object, false);
   if (oe != Err::ok) return oe;
   if (!vol_.valid()) {
-    std::snprintf(msg_, kMsgLen, "init_sphere: no volume set (call ffseg_set_volume first)");
+    std::snprintf(msg_, kMsgLen, "%s: no volume set (call ffseg_set_volume first)", call);
     return Err::misuse;
   }
   if (!std::isfinite(c[0]) || !std::isfinite(c[1]) || !std::isfinite(c[2])) {
-    std::snprintf(msg_, kMsgLen, "init_sphere: centre must be finite");
+    std::snprintf(msg_, kMsgLen, "%s: centre must be finite", call);
     return Err::invalid_argument;
   }
   if (!(r > 0) || !std::isfinite(r)) {
-    std::snprintf(msg_, kMsgLen, "init_sphere: radius %g mm must be positive and finite", r);
+    std::snprintf(msg_, kMsgLen, "%s: radius %g mm must be positive and finite", call, r);
     return Err::invalid_argument;
   }
   if (!vol_.ball_meets_grid(c, r)) {
-    std::snprintf(msg_, kMsgLen, "init_sphere: the sphere (%g, %g, %g) r = %g mm does not meet the volume",
-                  c[0], c[1], c[2], r);
+    std::snprintf(msg_, kMsgLen, "%s: the sphere (%g, %g, %g) r = %g mm does not meet the volume", call, c[0],
+                  c[1], c[2], r);
     return Err::sphere_outside;
   }
+  return Err::ok;
+}
+
+Err Engine::place(const char* call, uint32_t object, const double c[3], double r, const double* x) {
   // Several objects never overlap (the step guard keeps them apart from
-  // here on): a sphere that crosses or encloses a placed object, or lies
+  // here on): a mesh that crosses or encloses a placed object, or lies
   // inside one, is refused.
   if (cfg_.max_objects > 1) {
-    double* sphere = scratch_.tmp;
-    for (uint32_t v = 0; v < mesh_.nv; ++v)
-      for (int d = 0; d < 3; ++d) sphere[3 * v + d] = c[d] + r * mesh_.unit[3 * v + d];
     uint32_t others = 0;
     for (uint32_t j = 0; j < cfg_.max_objects; ++j)
       if (j != object && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
     if (others > 0) {
       build_obstacles(mesh_, scratch_.obstacles, others, scratch_.contacts);
-      if (mark_contacts(mesh_, sphere, scratch_.contacts, nullptr) > 0) {
+      if (mark_contacts(mesh_, x, scratch_.contacts, nullptr) > 0) {
         uint32_t hit = cfg_.max_objects;  // the first obstacle met, else the first placed one
         for (uint32_t k = 0, j = 0; j < cfg_.max_objects; ++j) {
           if (j == object || !objects_[j].placed) continue;
@@ -210,17 +251,20 @@ Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
             break;
           }
         }
-        std::snprintf(msg_, kMsgLen,
-                      "init_sphere: the sphere (%g, %g, %g) r = %g mm overlaps object %u (objects of one engine "
-                      "never overlap): place it apart",
-                      c[0], c[1], c[2], r, hit);
+        if (std::strcmp(call, "init_sphere") == 0)
+          std::snprintf(msg_, kMsgLen,
+                        "init_sphere: the sphere (%g, %g, %g) r = %g mm overlaps object %u (objects of one engine "
+                        "never overlap): place it apart",
+                        c[0], c[1], c[2], r, hit);
+        else
+          std::snprintf(msg_, kMsgLen, "%s: the mesh overlaps object %u (objects of one engine never overlap)",
+                        call, hit);
         return Err::invalid_argument;
       }
     }
   }
   Object& o = objects_[object];
-  for (uint32_t v = 0; v < mesh_.nv; ++v)
-    for (int d = 0; d < 3; ++d) o.x[3 * v + d] = c[d] + r * mesh_.unit[3 * v + d];
+  for (size_t q = 0; q < size_t(3) * mesh_.nv; ++q) o.x[q] = x[q];
   for (int d = 0; d < 3; ++d) o.center[d] = c[d];
   o.radius = r;
   o.placed = true;
@@ -405,7 +449,8 @@ Err Engine::step(StepReport* r) {
   // 7. Convergence, object by object, and the report of the first objects.
   // An object at rest is not necessarily segmented: a mesh that never met a
   // boundary only stood still, and one holding most of the grid swallowed
-  // the background. Its flags say so; they change only while it moves.
+  // the background, and one held in place while its targets still lie
+  // beyond it has stalled. Its flags say so; they change only while it moves.
   bool all_converged = true;
   uint32_t slot = 0;
   for (uint32_t i = 0; i < N; ++i) {
@@ -417,19 +462,27 @@ Err Engine::step(StepReport* r) {
       o.flags = (o.found_boundary ? 0u : uint32_t(kObjectNoBoundary)) |
                 (mesh_fills_grid(mesh_, o.x, vol_, kFillsGridFraction) ? uint32_t(kObjectFillsGrid) : 0u);
     }
+    const bool moved = !o.convergence.converged();
+    const ObjectStep& st = o.step;
+    if (moved) {
+      if (at < kReportObjects) {
+        r->moving[at] = st.moving;
+        r->mean_displacement_mm[at] = st.mean_displacement_mm;
+        r->with_target[at] = st.found;
+        r->flips_avoided[at] = st.flips_avoided;
+        r->folds_avoided[at] = st.folds_avoided;
+        r->border_vertices[at] = regions ? st.borders : 0;
+        r->guard_held[at] = st.guard_held;
+        r->far_outward[at] = st.far_out;
+        r->far_inward[at] = st.far_in;
+      }
+      if (!o.convergence.record(rule(), st.mean_displacement_mm, st.moving, nv,
+                                (double(st.far_out) - double(st.far_in)) / nv))
+        all_converged = false;
+      if (o.convergence.stalled()) o.flags |= kObjectStalled;
+    }
     if (at < kReportObjects) r->object_flags[at] = o.flags;
     r->flags_all |= o.flags;
-    if (o.convergence.converged()) continue;
-    const ObjectStep& st = o.step;
-    if (at < kReportObjects) {
-      r->moving[at] = st.moving;
-      r->mean_displacement_mm[at] = st.mean_displacement_mm;
-      r->with_target[at] = st.found;
-      r->flips_avoided[at] = st.flips_avoided;
-      r->folds_avoided[at] = st.folds_avoided;
-      r->border_vertices[at] = regions ? st.borders : 0;
-    }
-    if (!o.convergence.record(rule(), st.mean_displacement_mm, st.moving, nv)) all_converged = false;
   }
   ++steps_;
   r->step_index = steps_;

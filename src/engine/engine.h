@@ -30,6 +30,11 @@ class Engine {
   Err set_volume(const VolumeDesc& d);
   Err sample(const double w[3], uint32_t mode, double* value) const;
   Err init_sphere(uint32_t object, const double c[3], double r);
+  // The mesh of a cube-sphere of resolution n_src (xyz: 3 floats per vertex,
+  // 6 n_src^2 vertices) resampled to this engine's resolution
+  // (cubesphere_resample.h); the model from the sphere (c, r) as for
+  // init_sphere.
+  Err init_mesh(uint32_t object, const double c[3], double r, const float* xyz, uint32_t n_src);
   Err extract_mesh(uint32_t object, float* xyz, size_t xyz_cap, uint32_t* tris, size_t tri_cap,
                    size_t* nv, size_t* nt) const;
   Err rasterize(uint32_t object, uint8_t* mask, const int64_t strides[3]) const;
@@ -62,6 +67,11 @@ class Engine {
   Engine() = default;
   void layout(Arena& a);
   Err check_object(uint32_t object, bool must_be_placed) const;
+  // init_sphere's and init_mesh's checks of the object and its sphere, and
+  // their placement of positions x (3 nv; refused when they touch another
+  // object). call names the caller in messages.
+  Err check_seed(const char* call, uint32_t object, const double c[3], double r);
+  Err place(const char* call, uint32_t object, const double c[3], double r, const double* x);
   ConvergenceRule rule() const;
   Err update_regions();
   friend struct EngineTesting;

@@ -28,9 +28,13 @@ struct ObjectStep {
   uint8_t* has = nullptr;    // nv: vertex has a target / displacement
   uint8_t* border = nullptr; // nv: its target is the last sample before another object's region
   uint32_t found = 0;        // vertices with a target
+  uint32_t far_out = 0;      // ... whose target lies more than a voxel away outward
+  uint32_t far_in = 0;       // ... and inward (along the vertex normal)
   uint32_t borders = 0;      // border vertices (thesis 6.3)
   uint32_t flips_avoided = 0;
   uint32_t folds_avoided = 0;
+  double guard_kept = 1;            // the mean share of the solved update the guard kept
+  uint32_t guard_held = 0;          // vertices the guard held to less than half their update
   double mean_displacement_mm = 0;  // how far the step moved the vertices
   uint32_t moving = 0;              // ... and how many moved beyond the still threshold
   // regions: several objects, the border flags too.

@@ -184,6 +184,25 @@ void search_correspondences(const CubeSphere& m, const VolumeView& vol, const Pa
     is.partial_volume = o.convergence.refining();
     st.found = search_intensity(o.roi, o.model, nv, o.x, normals, is, st.target, st.has, region, st.border);
   }
+  // A voxel: the largest spacing, so that a target inside the vertex's own
+  // voxel in every direction is never far.
+  const double* sp = vol.spacing();
+  const double voxel = std::fmax(sp[0], std::fmax(sp[1], sp[2]));
+  // A border vertex's target is another object's region, where a neighbour
+  // holds it: a rest there is no stall.
+  st.far_out = st.far_in = 0;
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (!st.has[v] || (st.border && st.border[v])) continue;
+    double d2 = 0, dn = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double q = st.target[3 * size_t(v) + a] - o.x[3 * size_t(v) + a];
+      d2 += q * q;
+      dn += q * normals[3 * size_t(v) + a];
+    }
+    if (d2 <= voxel * voxel) continue;
+    st.far_out += dn > 0;
+    st.far_in += dn <= 0;
+  }
 }
 
 void avoid_contour_flips(const CubeSphere& m, const Params& p, const double* x, ObjectStep& st,
@@ -279,7 +298,9 @@ Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x
     build_obstacles(m, others, other_count, s.contacts, region);
     obstacles = &s.contacts;
   }
-  guard_step(m, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles, obstacles);
+  st.guard_kept = guard_step(m, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles, obstacles);
+  st.guard_held = 0;
+  for (uint32_t v = 0; v < nv; ++v) st.guard_held += s.weight[v] < 0.5;  // the guard's shares
   lap(kStageGuard);
   MotionTally tally{still_mm};
   for (uint32_t v = 0; v < nv; ++v) {

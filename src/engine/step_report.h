@@ -26,6 +26,7 @@ constexpr uint32_t kReportObjects = 16;
 enum ObjectFlag : uint32_t {
   kObjectNoBoundary = 1,  // no vertex found a boundary in any step since the object was placed
   kObjectFillsGrid = 2,   // more than kFillsGridFraction of the grid's voxels lie inside its mesh
+  kObjectStalled = 4,     // came to rest held, targets still beyond it (Convergence::stalled())
 };
 // An organ is cut out of its scan with background around it: a mesh holding
 // this much of the grid has swallowed the background. A sphere inscribed in
@@ -46,6 +47,9 @@ struct StepReport {
   uint64_t stage_us[kStageCount] = {};
   uint32_t object_flags[kReportObjects] = {};
   uint32_t flags_all = 0;  // every placed object's flags, or-ed
+  uint32_t guard_held[kReportObjects] = {};   // vertices the step guard held to less than half their update
+  uint32_t far_outward[kReportObjects] = {};  // vertices with a target more than a voxel outward
+  uint32_t far_inward[kReportObjects] = {};   // ... and inward
 };
 
 }  // namespace ffseg

@@ -120,7 +120,8 @@ TEST_CASE("create, set_volume, init_sphere, extract_mesh, rasterize, step and de
 
   int calls = -1;
   size_t nv = 0, nt = 0;
-  ffseg_status st_create, st_vol, st_sphere, st_mesh, st_mask, st_params, st_grey, st_sphere2, st_step, st_first_grey;
+  ffseg_status st_create, st_vol, st_sphere, st_mesh, st_mask, st_params, st_grey, st_sphere2, st_step, st_first_grey,
+      st_init_mesh;
   {
     Trap trap;
     ffseg_engine* e = nullptr;
@@ -148,6 +149,8 @@ TEST_CASE("create, set_volume, init_sphere, extract_mesh, rasterize, step and de
     (void)ffseg_set_params(e, &params);
     st_mesh = ffseg_extract_mesh(e, 0, xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3, &nv, &nt);
     st_mask = ffseg_rasterize(e, 0, mask.data(), nullptr);
+    // Coarse to fine's placement: the mesh just extracted, resampled in place.
+    st_init_mesh = ffseg_init_mesh(e, 0, c, 6.0, xyz.data(), nv);
     (void)ffseg_last_error(e);
     ffseg_destroy(e);
     calls = trap.calls();
@@ -161,7 +164,11 @@ TEST_CASE("create, set_volume, init_sphere, extract_mesh, rasterize, step and de
   CHECK(st_grey == FFSEG_OK);
   CHECK(st_sphere2 == FFSEG_OK);
   CHECK(st_first_grey == FFSEG_OK);      // at rest, into the partial-volume steps
-  CHECK(st_step == FFSEG_CONVERGED);
+  // At rest after one step by the huge tolerance, with most targets still
+  // beyond the meshes: a stall (FFSEG_OBJECT_STALLED), never CONVERGED.
+  CHECK(st_step == FFSEG_DEGENERATE);
+  CHECK((info.flags_all & FFSEG_OBJECT_STALLED) != 0);
+  CHECK(st_init_mesh == FFSEG_OK);
   CHECK(nv == 6 * 12 * 12);
   CHECK(nt == 12 * 12 * 12 - 4);
   size_t inside = 0;

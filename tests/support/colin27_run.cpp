@@ -68,7 +68,7 @@ StructureResult segment_structure(const ffseg_tools::NiftiImage& t1, const ffseg
     if (o.print_steps)
       std::printf("  step %d: disp %.3f targets %u flips %u guard %u  guard_us %llu feat_us %llu\n", s + 1, info.mean_displacement_mm[0],
                   info.vertices_with_target[0], info.flips_avoided[0], info.intersections_avoided[0], (unsigned long long)info.stage_us[8], (unsigned long long)info.stage_us[7]);
-    if (st == FFSEG_CONVERGED) break;
+    if (st == FFSEG_CONVERGED || st == FFSEG_DEGENERATE) break;  // at rest
   }
   res.intersections = watch.intersections;
   res.flips = watch.flips;

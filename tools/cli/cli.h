@@ -22,6 +22,7 @@ constexpr int kExitUsage = 2;        // bad command line
 constexpr int kExitInput = 3;        // unreadable or malformed input file
 constexpr int kExitEngine = 4;       // the engine reported an error
 constexpr int kExitNoResult = 5;     // the run ended, but no object was found (segment: see cmd_segment.cpp)
+constexpr int kExitStalled = 6;      // segment: outputs written, but an object stalled short of its boundary
 constexpr int kExitInterrupted = 130;
 
 // Thrown anywhere in a command; main prints "ffseg: error: <message>" and

@@ -195,6 +195,14 @@ struct EngineRun {
   bool converged = false;
   int64_t steps = 0;
   std::vector<uint32_t> border_vertices;  // at the last step each object moved
+  // Coarse to fine (automatic resolution): each object's first-run mesh
+  // (xyz, kFirstResolution) the finer run started from, and whether that
+  // run stalled; stalled: each object's FFSEG_OBJECT_STALLED at the end, and
+  // from_coarse: objects whose finer run stalled and that were put back on
+  // their first-run surface instead.
+  std::vector<std::vector<float>> coarse;
+  std::vector<uint8_t> coarse_stalled, stalled, from_coarse;
+  std::vector<std::array<double, 3>> far;  // outward, inward, vertices: at each object's last moving step
   // Seconds: every pass's engine setup; the last pass's steps (as stage_us).
   double t_setup = 0, t_stepping = 0;
 };
@@ -240,7 +248,13 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
     const SphereArg& s = rq.spheres[k];
     run->centres_mm[k] =
         s.voxel ? voxel_to_world(img.index_to_world, s.c) : std::array<double, 3>{s.c[0], s.c[1], s.c[2]};
-    st = ffseg_init_sphere(ws.e, k, run->centres_mm[k].data(), s.c[3]);
+    // Coarse to fine: the first run's mesh, resampled (its model still from
+    // the sphere); a mesh the engine refuses starts from the sphere.
+    st = FFSEG_ERR_INVALID_ARGUMENT;
+    if (!run->coarse.empty())
+      st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->coarse[k].data(),
+                           run->coarse[k].size() / 3);
+    if (st != FFSEG_OK) st = ffseg_init_sphere(ws.e, k, run->centres_mm[k].data(), s.c[3]);
     if (st == FFSEG_ERR_SPHERE_OUTSIDE || st == FFSEG_ERR_INVALID_ARGUMENT) {
       const std::string detail = ffseg_last_error(ws.e);
       fail(kExitUsage, "object " + std::to_string(k + 1) + " (" + s.text + "): " +
@@ -264,6 +278,7 @@ bool step_to_rest(const SegmentRequest& rq, EngineRun* run, int64_t limit, bool 
     run->converged = false;
     run->steps = 0;
     run->border_vertices.assign(nobj, 0);
+    run->far.assign(nobj, {0.0, 0.0, 0.0});
   }
   const auto t0 = std::chrono::steady_clock::now();
   Progress progress(!rq.quiet, rq.max_steps, nobj);
@@ -281,8 +296,10 @@ bool step_to_rest(const SegmentRequest& rq, EngineRun* run, int64_t limit, bool 
     run->steps = s + 1;
     for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) run->stage_us[g] += info.stage_us[g];
     for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k)
-      if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0)
+      if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0) {
         run->border_vertices[k] = info.border_vertices[k];
+        run->far[k] = {double(info.far_outward[k]), double(info.far_inward[k]), 0.0};
+      }
     run->converged = st == FFSEG_CONVERGED;
     at_rest = run->converged || st == FFSEG_DEGENERATE;
     progress.step(info, seconds_since(t0), at_rest || run->steps == rq.max_steps);
@@ -308,14 +325,39 @@ uint32_t wanted_resolution(const ffseg_engine* e, const ffseg_tools::NiftiImage&
   return wanted;
 }
 
+// Object k's mesh as the engine extracts it (xyz only).
+std::vector<float> mesh_vertices(const ffseg_engine* e, uint32_t k) {
+  size_t nv = 0, nt = 0;
+  ffseg_status st = ffseg_extract_mesh(e, k, nullptr, 0, nullptr, 0, &nv, &nt);
+  if (st != FFSEG_OK) engine_fail(e, st, "ffseg_extract_mesh");
+  std::vector<float> xyz(3 * nv);
+  st = ffseg_extract_mesh(e, k, xyz.data(), nv, nullptr, 0, &nv, &nt);
+  if (st != FFSEG_OK) engine_fail(e, st, "ffseg_extract_mesh");
+  return xyz;
+}
+
+// Each object's FFSEG_OBJECT_STALLED as of the run's last step.
+std::vector<uint8_t> stalled_objects(const EngineRun& run, uint32_t nobj) {
+  std::vector<uint8_t> s(nobj, 0);
+  for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k)
+    s[k] = (run.info.object_flags[k] & FFSEG_OBJECT_STALLED) != 0;
+  return s;
+}
+
 // The deformation. Without --mesh-resolution the first run at
 // kFirstResolution measures each object's surface, at rest or after
-// kMeasureSteps steps, and the run is made again when they ask for a finer
-// mesh (mesh_resolution.h); else the first run goes on where it stopped.
+// kMeasureSteps steps, and when they ask for a finer mesh (mesh_resolution.h)
+// a finer engine goes on from the first run's meshes (coarse to fine: the
+// fine mesh starts where the coarse one stopped, not at the sphere); else
+// the first run goes on where it stopped. An object whose finer run stalls
+// where its first run did not is put back on its first run's surface.
 void run_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, EngineRun* run) {
   const bool automatic = rq.mesh_resolution == 0;
+  const uint32_t nobj = rq.objects();
   run->resolution = automatic ? kFirstResolution : rq.mesh_resolution;
   run->t_setup = 0;
+  run->coarse.clear();
+  run->from_coarse.assign(nobj, 0);
   for (int pass = 0;; ++pass) {
     const auto t_setup0 = std::chrono::steady_clock::now();
     start_engine(rq, img, run);
@@ -324,9 +366,26 @@ void run_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, En
     auto t_step0 = std::chrono::steady_clock::now();
     const bool at_rest = step_to_rest(rq, run, measuring ? kMeasureSteps : rq.max_steps, false);
     run->t_stepping = seconds_since(t_step0);
-    if (!measuring) break;
+    if (!measuring) {
+      run->stalled = stalled_objects(*run, nobj);
+      if (!run->coarse.empty())
+        for (uint32_t k = 0; k < nobj; ++k) {
+          if (!run->stalled[k] || run->coarse_stalled[k]) continue;
+          const SphereArg& sp = rq.spheres[k];
+          if (ffseg_init_mesh(run->ws.e, k, run->centres_mm[k].data(), sp.c[3], run->coarse[k].data(),
+                              run->coarse[k].size() / 3) != FFSEG_OK)
+            continue;  // it touches a neighbour's finer mesh: the stalled one stays
+          run->stalled[k] = 0;
+          run->from_coarse[k] = 1;
+          if (!rq.quiet)
+            std::fprintf(stderr, "ffseg: object %u (%s) stalled at mesh resolution %u; kept on its surface "
+                         "from resolution %u\n", k + 1, rq.names[k].c_str(), run->resolution, kFirstResolution);
+        }
+      break;
+    }
     // A finer mesh would not make a segmentation of a result that is none.
-    const uint32_t again = run->info.flags_all != 0
+    // (A stalled first run is still refined: the finer mesh may get past.)
+    const uint32_t again = (run->info.flags_all & ~uint32_t(FFSEG_OBJECT_STALLED)) != 0
                                ? 0
                                : rerun_resolution(run->wanted_resolution = wanted_resolution(run->ws.e, img, rq.objects()));
     if (again == 0) {
@@ -335,8 +394,12 @@ void run_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, En
         step_to_rest(rq, run, rq.max_steps, true);
         run->t_stepping += seconds_since(t_step0);
       }
+      run->stalled = stalled_objects(*run, nobj);
       break;
     }
+    run->coarse.resize(nobj);
+    for (uint32_t k = 0; k < nobj; ++k) run->coarse[k] = mesh_vertices(run->ws.e, k);
+    run->coarse_stalled = stalled_objects(*run, nobj);
     if (!rq.quiet)
       std::fprintf(stderr, "ffseg: the surfaces ask for mesh resolution %u; segmenting again at it "
                    "(--mesh-resolution N to fix one)\n", again);
@@ -362,7 +425,7 @@ void refuse_degenerate(const SegmentRequest& rq, const EngineRun& run, const std
       fail(kExitNoResult, who + " fills " + std::to_string(int(100.0 * double(res[k].voxels) / double(nvox) + 0.5)) +
                               "% of the volume grid: no organ boundary held it (is the sphere larger than the organ?)");
   }
-  if (info.flags_all != 0)  // an object past the engine's per-object report
+  if ((info.flags_all & ~uint32_t(FFSEG_OBJECT_STALLED)) != 0)  // an object past the engine's per-object report
     fail(kExitNoResult, "one of objects " + std::to_string(FFSEG_REPORT_OBJECTS + 1) + ".." + std::to_string(nobj) +
                             (info.flags_all & FFSEG_OBJECT_NO_BOUNDARY
                                  ? ": no vertex found a boundary along its normal (check --sphere and --target)"
@@ -444,7 +507,12 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
     if (k < FFSEG_REPORT_OBJECTS) {
       o.set("final_mean_displacement_mm", run.info.mean_displacement_mm[k]);
       o.set("final_vertices_with_target", run.info.vertices_with_target[k]);
+      // A stall (FFSEG_OBJECT_STALLED): at rest, targets still beyond.
+      o.set("stalled", run.stalled[k] != 0);
+      o.set("final_far_outward", uint64_t(run.far[k][0]));
+      o.set("final_far_inward", uint64_t(run.far[k][1]));
     }
+    if (!run.coarse.empty()) o.set("kept_first_run_surface", run.from_coarse[k] != 0);
     if (nobj > 1) {
       if (k < FFSEG_REPORT_OBJECTS) o.set("border_vertices", r.border_vertices);  // ffseg_step_info's reach
       o.set("shared_voxels", uint64_t(r.shared_voxels));
@@ -481,6 +549,9 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
   rep.set("steps", run.steps);
   rep.set("max_steps", rq.max_steps);
   rep.set("converged", run.converged);
+  uint64_t stalled = 0;
+  for (uint8_t st : run.stalled) stalled += st;
+  rep.set("stalled_objects", stalled);
   rep.set("objects", std::move(objects));
   if (nobj > 1) rep.set("shared_voxels", uint64_t(shared_voxels));
   Json tj = Json::object();
@@ -508,6 +579,7 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
     // The first run's resolution and what its surfaces asked for (mesh_resolution.h).
     cj.set("first_mesh_resolution", kFirstResolution);
     cj.set("asked_mesh_resolution", run.wanted_resolution);
+    cj.set("refined_from_first_run", !run.coarse.empty());
   }
   cj.set("max_roi_voxels", run.cfg.max_roi_voxels);
   rep.set("config", std::move(cj));
@@ -555,11 +627,32 @@ void move_into_place(const SegmentRequest& rq, TempDir* tmp, TempFile* regions_t
   }
 }
 
+// A stalled object (FFSEG_OBJECT_STALLED that no way out removed): a
+// warning on stderr, also with --quiet; true when there is one.
+bool warn_stalls(const SegmentRequest& rq, const EngineRun& run) {
+  bool any = false;
+  for (uint32_t k = 0; k < rq.objects() && k < run.stalled.size(); ++k) {
+    if (!run.stalled[k]) continue;
+    any = true;
+    const bool out = run.far[k][0] >= run.far[k][1];
+    std::fprintf(stderr,
+                 "ffseg: warning: object %u (%s) stalled: it came to rest with %.0f vertices pointing more than a "
+                 "voxel %s and %.0f %s; its mesh %s its boundary (outputs written; exit status %d)\n",
+                 k + 1, rq.names[k].c_str(), out ? run.far[k][0] : run.far[k][1], out ? "outward" : "inward",
+                 out ? run.far[k][1] : run.far[k][0], out ? "inward" : "outward",
+                 out ? "stops short of" : "overshoots", kExitStalled);
+  }
+  return any;
+}
+
 // The summary on stdout: one line per object, from the report.
 void print_summary(const SegmentRequest& rq, const EngineRun& run, const std::vector<ObjectResult>& res,
                    const ffseg_tools::Json& rep, size_t shared_voxels) {
   const uint32_t nobj = rq.objects();
-  std::printf("%s after %lld step%s in %.2f s; outputs in %s/\n", run.converged ? "converged" : "stopped",
+  bool stalled = false;
+  for (uint8_t st : run.stalled) stalled = stalled || st;
+  std::printf("%s after %lld step%s in %.2f s; outputs in %s/\n",
+              stalled ? "stalled" : run.converged ? "converged" : "stopped",
               static_cast<long long>(run.steps), run.steps == 1 ? "" : "s", run.t_stepping, rq.out_dir.c_str());
   for (uint32_t k = 0; k < nobj; ++k) {
     const ffseg_tools::Json& o = (*rep.get("objects"))[k];
@@ -754,7 +847,7 @@ int cmd_segment(int argc, char** argv) {
 
   move_into_place(rq, &tmp, &regions_tmp);
   print_summary(rq, run, res, rep, shared_voxels);
-  return kExitOk;
+  return warn_stalls(rq, run) ? kExitStalled : kExitOk;
 }
 
 }  // namespace ffseg_cli

@@ -25,12 +25,12 @@ import warnings as _warnings
 import numpy as _np
 
 from . import _abi
-from ._abi import (CONVERGED, DEGENERATE, OBJECT_FILLS_GRID, OBJECT_NO_BOUNDARY,  # noqa: F401
+from ._abi import (CONVERGED, DEGENERATE, OBJECT_FILLS_GRID, OBJECT_NO_BOUNDARY, OBJECT_STALLED,  # noqa: F401
                    OK, STAGE_NAMES, TARGET_BINARY, TARGET_INTENSITY)
 
 __all__ = ["Engine", "Error", "VolumeError", "StepInfo", "segment", "library_path", "version",
            "param_names", "TARGET_BINARY", "TARGET_INTENSITY", "STAGE_NAMES", "DEGENERATE",
-           "OBJECT_NO_BOUNDARY", "OBJECT_FILLS_GRID"]
+           "OBJECT_NO_BOUNDARY", "OBJECT_FILLS_GRID", "OBJECT_STALLED"]
 
 
 class Error(Exception):
@@ -186,8 +186,8 @@ def _volume_descriptor(array, affine, rescale_slope, rescale_intercept):
 class StepInfo:
     """What one ffseg_step reported: step_index, active_objects, per-object
     lists (mean_displacement_mm, vertices_with_target, flips_avoided,
-    intersections_avoided, border_vertices, object_flags; one entry per object,
-    at most 16), flags_all (every object's OBJECT_* flags or-ed; non-zero: some
+    intersections_avoided, border_vertices, object_flags, guard_held, far_outward,
+    far_inward; one entry per object, at most 16), flags_all (every object's OBJECT_* flags or-ed; non-zero: some
     result is no segmentation) and stage_us, a dict of microseconds by stage name."""
 
     def __init__(self, raw, objects):
@@ -195,7 +195,8 @@ class StepInfo:
         self.step_index = raw.step_index
         self.active_objects = raw.active_objects
         for f in ("mean_displacement_mm", "vertices_with_target", "flips_avoided",
-                  "intersections_avoided", "border_vertices", "object_flags"):
+                  "intersections_avoided", "border_vertices", "object_flags", "guard_held",
+                  "far_outward", "far_inward"):
             setattr(self, f, list(getattr(raw, f))[:n])
         self.flags_all = int(raw.flags_all)
         self.stage_us = {name: int(raw.stage_us[i]) for i, name in enumerate(STAGE_NAMES)}
@@ -335,11 +336,28 @@ class Engine:
         _check(_lib.ffseg_init_sphere(self._handle(), _u32(obj, "object"), (_C.c_double * 3)(*c),
                                       float(radius_mm)), "ffseg_init_sphere", self._e)
 
+    def init_mesh(self, obj, center_mm, radius_mm, vertices):
+        """Places object `obj`'s mesh from another engine's (coarse to fine):
+        `vertices` is an (6 n^2, 3) array as extract_mesh returns it, from an
+        engine of any mesh resolution n; it is resampled to this engine's.
+        The grey-level model comes from the sphere (center_mm, radius_mm), as
+        init_sphere's does: give the sphere the mesh grew from."""
+        c = tuple(map(float, center_mm))
+        if len(c) != 3:
+            raise Error(-1, f"the centre needs 3 coordinates, got {len(c)}", "init_mesh")
+        v = _np.ascontiguousarray(vertices, dtype=_np.float32)
+        if v.ndim != 2 or v.shape[1] != 3:
+            raise Error(-1, f"vertices must be an (N, 3) array, got shape {v.shape}", "init_mesh")
+        _check(_lib.ffseg_init_mesh(self._handle(), _u32(obj, "object"), (_C.c_double * 3)(*c),
+                                    float(radius_mm), v.ctypes.data_as(_C.POINTER(_C.c_float)), v.shape[0]),
+               "ffseg_init_mesh", self._e)
+
     def step(self):
         """One deformation step of every placed object; True once every object
         has come to rest: converged, or DEGENERATE (.last_status), when some
-        object's result is no segmentation (.last_step_info.object_flags:
-        OBJECT_NO_BOUNDARY, OBJECT_FILLS_GRID). The step's report is in
+        object's result is no segmentation or only part of one
+        (.last_step_info.object_flags: OBJECT_NO_BOUNDARY, OBJECT_FILLS_GRID,
+        OBJECT_STALLED). The step's report is in
         .last_step_info (StepInfo)."""
         raw = _abi.StepInfo()
         raw.struct_size = _C.sizeof(raw)
@@ -431,7 +449,8 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
         if flags is not None and flags.flags_all:
             _warnings.warn("ffseg.segment: some result is no segmentation (object_flags "
                            f"{flags.object_flags}: 1 = no vertex ever found a boundary, "
-                           "2 = the object fills most of the grid)", RuntimeWarning, stacklevel=2)
+                           "2 = the object fills most of the grid, 4 = it stalled short of its "
+                           "boundary)", RuntimeWarning, stacklevel=2)
         masks = [e.rasterize(k) for k in range(len(spheres))]
         if return_meshes:
             return masks, [e.extract_mesh(k) for k in range(len(spheres))]

@@ -14,6 +14,7 @@ CONVERGED = 1
 DEGENERATE = 2  # at rest, but some object's result is no segmentation (object_flags)
 OBJECT_NO_BOUNDARY = 1
 OBJECT_FILLS_GRID = 2
+OBJECT_STALLED = 4  # since 0.5.0: came to rest short of (or beyond) its boundary
 
 STATUS_NAMES = {
     -1: "INVALID_ARGUMENT", -2: "NULL_POINTER", -3: "WORKSPACE_TOO_SMALL",
@@ -107,6 +108,9 @@ class StepInfo(C.Structure):
         ("object_flags", C.c_uint32 * REPORT_OBJECTS),
         ("flags_all", C.c_uint32),
         ("reserved1", C.c_uint32),
+        ("guard_held", C.c_uint32 * REPORT_OBJECTS),
+        ("far_outward", C.c_uint32 * REPORT_OBJECTS),
+        ("far_inward", C.c_uint32 * REPORT_OBJECTS),
     ]
 
 
@@ -132,6 +136,8 @@ def bind(lib):
         "ffseg_set_volume": (st, [C.c_void_p, P(Volume)]),
         "ffseg_sample": (st, [C.c_void_p, P(C.c_double), C.c_uint32, P(C.c_double)]),
         "ffseg_init_sphere": (st, [C.c_void_p, C.c_uint32, P(C.c_double), C.c_double]),
+        "ffseg_init_mesh": (st, [C.c_void_p, C.c_uint32, P(C.c_double), C.c_double, P(C.c_float),
+                                 C.c_size_t]),
         "ffseg_step": (st, [C.c_void_p, P(StepInfo)]),
         "ffseg_extract_mesh": (st, [C.c_void_p, C.c_uint32, P(C.c_float), C.c_size_t,
                                     P(C.c_uint32), C.c_size_t, P(C.c_size_t), P(C.c_size_t)]),
