@@ -39,7 +39,8 @@ int main(void) {
   F(ffseg_step_info, vertices_with_target); F(ffseg_step_info, flips_avoided);
   F(ffseg_step_info, intersections_avoided); F(ffseg_step_info, border_vertices);
   F(ffseg_step_info, stage_us); F(ffseg_step_info, object_flags); F(ffseg_step_info, flags_all);
-  F(ffseg_step_info, reserved1);
+  F(ffseg_step_info, reserved1); F(ffseg_step_info, guard_held); F(ffseg_step_info, far_outward);
+  F(ffseg_step_info, far_inward);
 
   /* Constants the mirror repeats. */
   printf("const FFSEG_STAGE_COUNT %d\n", FFSEG_STAGE_COUNT);

@@ -206,11 +206,10 @@ TEST_CASE("chapter 5 on Colin27: eight AAL structures from the protocol sphere, 
 TEST_CASE("chapter 5 on Colin27: partial-volume steps come after the first rest, at most partial_volume_steps of them") {
   // Putamen L (n = 12): without them the mesh rests on the g crossings and
   // converges there; with k of them the run is the same up to that rest, then
-  // at most k steps more, and the boundaries move outwards. The first two
-  // still move more than convergence_mm, so k = 1 and 2 take exactly k; at
-  // k = 4 the grey-level creep rule (convergence.cpp: three steps in a row
-  // below twice convergence_mm) ends the run after 3 (measured since the
-  // statistics became independent of the storage order, issue 19).
+  // at most k steps more, and the boundaries move outwards. Since the step
+  // guard stops only the patch that keeps crossing (issue 29) the first
+  // partial-volume step already brings it to rest: 14 -> 15 steps at every k
+  // (before, k = 1 and 2 took exactly k and k = 4 three).
   ffseg_tools::NiftiImage t1, aal;
   std::string err;
   REQUIRE_MESSAGE(ffseg_tools::nifti_read_file(kColin27T1, &t1, &err), err);
@@ -226,7 +225,6 @@ TEST_CASE("chapter 5 on Colin27: partial-volume steps come after the first rest,
     MESSAGE("steps " << off.steps << " -> " << r.steps << ", " << off.m.vol_a_ml << " -> " << r.m.vol_a_ml << " ml");
     CHECK(r.steps > off.steps);
     CHECK(r.steps <= off.steps + k);
-    if (k <= 2) CHECK(r.steps == off.steps + k);
     CHECK(r.m.vol_a_ml > off.m.vol_a_ml);
     CHECK(r.intersections == 0);
     CHECK(r.flips == 0);

@@ -864,7 +864,7 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     const Run r = ffseg(s, "segment " + (s / "small.nii.gz") + " --target binary --sphere 4,27,12,4 --out " + (s / "a"));
     INFO("stderr: " << r.err);
     REQUIRE(r.code == 0);
-    CHECK(r.err.find("segmenting again") == std::string::npos);
+    CHECK(r.err.find("refining at") == std::string::npos);
     const Json rep = parse_json(slurp(s / "a/report.json"));
     const Json* cfg = rep.get("config");
     REQUIRE(cfg != nullptr);
@@ -892,7 +892,7 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     const Run r = ffseg(s, "segment " + (s / "large.nii.gz") + " --target binary --sphere 16,16,16,4 --out " + (s / "b"));
     INFO("stderr: " << r.err);
     REQUIRE(r.code == 0);
-    CHECK(r.err.find("segmenting again at it") != std::string::npos);
+    CHECK(r.err.find("refining at it") != std::string::npos);
     const Json rep = parse_json(slurp(s / "b/report.json"));
     const Json* cfg = rep.get("config");
     REQUIRE(cfg != nullptr);
@@ -912,7 +912,7 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     INFO("stderr: " << r.err);
     REQUIRE(r.code == 0);
     REQUIRE(f.code == 0);
-    CHECK(r.err.find("segmenting again") == std::string::npos);
+    CHECK(r.err.find("refining at") == std::string::npos);
     const Json rd = parse_json(slurp(s / "d/report.json"));
     const Json re = parse_json(slurp(s / "e/report.json"));
     CHECK(rd.get("steps")->as_number() > 60);  // else this case does not measure before rest
@@ -929,6 +929,76 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     CHECK(rep.get("config")->get("mesh_resolution_source")->as_string() == "--mesh-resolution");
     CHECK(rep.get("config")->get("asked_mesh_resolution") == nullptr);
   }
+}
+
+TEST_CASE("cli: a stalled object is warned about (also with --quiet), reported, written, and exits 6") {
+  // The Laplacian term a million times the positional one: the mesh barely
+  // moves and rests after a step with its targets still outward (the
+  // engine's FFSEG_OBJECT_STALLED), not converged.
+  Scratch s;
+  const Balls b = make_balls({kBall}, {1});
+  write(s / "ball.nii.gz", b.image);
+  const std::string base = "segment " + (s / "ball.nii.gz") + " --target binary --sphere 4,27,12,2 --mesh-resolution 12 --quiet";
+  const Run r = ffseg(s, base + " --param lambda_position=1e-6 --param lambda_laplacian=1e6 --out " + (s / "held"));
+  INFO("stderr: " << r.err);
+  CHECK(r.code == 6);
+  CHECK(r.err.find("warning: object 1 (object1) stalled") != std::string::npos);
+  CHECK(r.err.find("outward") != std::string::npos);
+  CHECK(fs::exists(s / "held/labels.nii.gz"));
+  CHECK(fs::exists(s / "held/object1.ply"));
+  const Json rep = parse_json(slurp(s / "held/report.json"));
+  CHECK(rep.get("stalled_objects")->as_number() == 1);
+  CHECK_FALSE(rep.get("converged")->as_bool());
+  const Json& o = (*rep.get("objects"))[0];
+  CHECK(o.get("stalled")->as_bool());
+  CHECK(o.get("final_far_outward")->as_number() > o.get("final_far_inward")->as_number());
+  // The same ball with the default terms: no stall, exit 0, nothing said.
+  const Run ok = ffseg(s, base + " --out " + (s / "ok"));
+  CHECK(ok.code == 0);
+  CHECK(ok.err.find("stalled") == std::string::npos);
+  const Json rep_ok = parse_json(slurp(s / "ok/report.json"));
+  CHECK(rep_ok.get("stalled_objects")->as_number() == 0);
+  CHECK_FALSE((*rep_ok.get("objects"))[0].get("stalled")->as_bool());
+}
+
+TEST_CASE("cli: a fixed resolution above 12 is grown at 12 and refined: the finer mesh starts at the coarse surface") {
+  // A 14 mm ball on 0.5 mm voxels from a 2 mm sphere at n = 40: reported as
+  // refined from the first run, as good as n = 12 and not a voxel smaller
+  // than 2% of it.
+  Scratch s;
+  Balls b = make_balls({}, {});
+  NiftiImage& img = b.image;
+  img.dims[0] = img.dims[1] = img.dims[2] = 64;
+  const double A[16] = {0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1};
+  std::memcpy(img.index_to_world, A, sizeof A);
+  for (int a = 0; a < 3; ++a) img.spacing[a] = img.pixdim[a + 1] = 0.5;
+  img.data.assign(img.voxel_count(), 0);
+  size_t idx = 0;
+  for (int k = 0; k < 64; ++k)
+    for (int j = 0; j < 64; ++j)
+      for (int i = 0; i < 64; ++i, ++idx) {
+        const double x = 0.5 * i - 16, y = 0.5 * j - 16, z = 0.5 * k - 16;
+        img.data[idx] = x * x + y * y + z * z <= 14.0 * 14.0 ? 100 : 0;
+      }
+  write(s / "large.nii.gz", img);
+  const std::string base = "segment " + (s / "large.nii.gz") + " --target binary --sphere 16,16,16,2 --truth " +
+                           (s / "large.nii.gz") + " --truth-labels 100";
+  const Run r12 = ffseg(s, base + " --mesh-resolution 12 --out " + (s / "n12"));
+  const Run r40 = ffseg(s, base + " --mesh-resolution 40 --out " + (s / "n40"));
+  INFO("stderr: " << r40.err);
+  REQUIRE(r12.code == 0);
+  REQUIRE(r40.code == 0);
+  CHECK(r40.err.find("grown at mesh resolution 12; refining at 40") != std::string::npos);
+  const Json a = parse_json(slurp(s / "n12/report.json")), c = parse_json(slurp(s / "n40/report.json"));
+  CHECK_FALSE(a.get("config")->get("refined_from_first_run")->as_bool());
+  CHECK(c.get("config")->get("refined_from_first_run")->as_bool());
+  CHECK(c.get("config")->get("mesh_resolution")->as_number() == 40);
+  const Json& o12 = (*a.get("objects"))[0];
+  const Json& o40 = (*c.get("objects"))[0];
+  CHECK(o40.get("vertices")->as_number() == 6 * 40 * 40);
+  CHECK(o40.get("voxels")->as_number() >= 0.98 * o12.get("voxels")->as_number());
+  CHECK(o40.get("metrics")->get("dice")->as_number() >= o12.get("metrics")->get("dice")->as_number() - 0.002);
+  CHECK(o40.get("metrics")->get("dice")->as_number() >= 0.98);
 }
 
 TEST_CASE("cli: non-finite voxels are counted, warned about (also with --quiet) and reported") {

@@ -353,8 +353,12 @@ std::vector<uint8_t> stalled_objects(const EngineRun& run, uint32_t nobj) {
 // where its first run did not is put back on its first run's surface.
 void run_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, EngineRun* run) {
   const bool automatic = rq.mesh_resolution == 0;
+  // A fixed resolution above the first one is reached the same way: grown at
+  // kFirstResolution to rest, then refined (a fine mesh from the sphere jams
+  // on a scanner's grid: the 1 mm CT liver at n = 49 stalled at 36% of it).
+  const bool coarse_first = !automatic && rq.mesh_resolution > kFirstResolution;
   const uint32_t nobj = rq.objects();
-  run->resolution = automatic ? kFirstResolution : rq.mesh_resolution;
+  run->resolution = automatic || coarse_first ? kFirstResolution : rq.mesh_resolution;
   run->t_setup = 0;
   run->coarse.clear();
   run->from_coarse.assign(nobj, 0);
@@ -362,11 +366,11 @@ void run_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, En
     const auto t_setup0 = std::chrono::steady_clock::now();
     start_engine(rq, img, run);
     run->t_setup += seconds_since(t_setup0);
-    const bool measuring = automatic && pass == 0;
+    const bool measuring = automatic && pass == 0, growing = coarse_first && pass == 0;
     auto t_step0 = std::chrono::steady_clock::now();
     const bool at_rest = step_to_rest(rq, run, measuring ? kMeasureSteps : rq.max_steps, false);
     run->t_stepping = seconds_since(t_step0);
-    if (!measuring) {
+    if (!measuring && !growing) {
       run->stalled = stalled_objects(*run, nobj);
       if (!run->coarse.empty())
         for (uint32_t k = 0; k < nobj; ++k) {
@@ -385,7 +389,8 @@ void run_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, En
     }
     // A finer mesh would not make a segmentation of a result that is none.
     // (A stalled first run is still refined: the finer mesh may get past.)
-    const uint32_t again = (run->info.flags_all & ~uint32_t(FFSEG_OBJECT_STALLED)) != 0
+    const uint32_t again = growing ? rq.mesh_resolution
+                           : (run->info.flags_all & ~uint32_t(FFSEG_OBJECT_STALLED)) != 0
                                ? 0
                                : rerun_resolution(run->wanted_resolution = wanted_resolution(run->ws.e, img, rq.objects()));
     if (again == 0) {
@@ -400,8 +405,10 @@ void run_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, En
     run->coarse.resize(nobj);
     for (uint32_t k = 0; k < nobj; ++k) run->coarse[k] = mesh_vertices(run->ws.e, k);
     run->coarse_stalled = stalled_objects(*run, nobj);
-    if (!rq.quiet)
-      std::fprintf(stderr, "ffseg: the surfaces ask for mesh resolution %u; segmenting again at it "
+    if (!rq.quiet && growing)
+      std::fprintf(stderr, "ffseg: grown at mesh resolution %u; refining at %u\n", kFirstResolution, again);
+    else if (!rq.quiet)
+      std::fprintf(stderr, "ffseg: the surfaces ask for mesh resolution %u; refining at it "
                    "(--mesh-resolution N to fix one)\n", again);
     run->resolution = again;
   }
@@ -575,11 +582,13 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
   cj.set("mesh_resolution", run.resolution);
   const bool automatic = rq.mesh_resolution == 0;
   cj.set("mesh_resolution_source", automatic ? "automatic" : "--mesh-resolution");
+  // Coarse to fine: grown at kFirstResolution, then refined at this one.
+  cj.set("refined_from_first_run", !run.coarse.empty());
   if (automatic) {
     // The first run's resolution and what its surfaces asked for (mesh_resolution.h).
     cj.set("first_mesh_resolution", kFirstResolution);
     cj.set("asked_mesh_resolution", run.wanted_resolution);
-    cj.set("refined_from_first_run", !run.coarse.empty());
+
   }
   cj.set("max_roi_voxels", run.cfg.max_roi_voxels);
   rep.set("config", std::move(cj));

@@ -28,7 +28,8 @@ const char* const kMainUsage =
     "\n"
     "exit status: 0 success, 1 an output could not be written, 2 usage error,\n"
     "3 unreadable or malformed input, 4 engine error, 5 no object found (segment: no\n"
-    "boundary ever met, or an object fills most of the grid), 130 interrupted.\n";
+    "boundary ever met, or an object fills most of the grid), 6 an object stalled short of\n"
+    "its boundary (segment: outputs written, warned about), 130 interrupted.\n";
 
 std::string version_string(uint32_t v) {
   return std::to_string(v / 10000) + "." + std::to_string(v / 100 % 100) + "." + std::to_string(v % 100);

@@ -1,0 +1,68 @@
+"""The shared abdominal CT's liver at 1 mm (issue 29): the mesh on a
+scanner-resolution grid. The 3 mm scan of ../shared/data/abdomen_ct is
+resampled to 1 mm by scripts/abdomen_ct.py (37 M voxels); the liver (label 5)
+grows from its protocol sphere with the CLI.
+
+What is asserted is what the engine promises there: the automatic
+resolution refines the n = 12 mesh and never ends smaller or less accurate
+than it, and a fixed fine resolution either reaches what n = 12 reaches or
+says it stalled (exit 6, report.json "stalled") instead of calling its jam
+convergence. Issue 29's Dice >= 0.85 at 1 mm is not reached (the model the
+sphere's smooth, resampled samples give is narrower than the liver's grey
+levels; BENCHMARKS section 4b): the floors below guard today's figures."""
+import json
+import os
+import sys
+
+import pytest
+
+from conftest import ROOT, run_cli
+
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+import abdomen_ct  # noqa: E402
+
+pytestmark = pytest.mark.skipif(not os.path.isdir(abdomen_ct.DATA),
+                                reason=f"{abdomen_ct.DATA} is absent: the shared data beside the repository")
+
+
+@pytest.fixture(scope="module")
+def grid_1mm(tmp_path_factory):
+    return abdomen_ct.resample(3, str(tmp_path_factory.mktemp("abdomen_ct")))
+
+
+def liver(grid, out, resolution):
+    lab = os.path.join(grid, "labels.nii.gz")
+    args = ["segment", os.path.join(grid, "ct.nii.gz"), "--sphere-from-label", f"{lab}:5", "--truth", lab,
+            "--names", "liver", "--out", out, "--quiet"]
+    if resolution != "auto":
+        args += ["--mesh-resolution", str(resolution)]
+    r = run_cli(*args, check=False)
+    assert r.returncode in (0, 6), r.stderr
+    rep = json.load(open(os.path.join(out, "report.json")))
+    o = rep["objects"][0]
+    return r, rep, o
+
+
+def test_liver_at_1mm_the_automatic_resolution_refines_n12_and_a_jam_is_never_convergence(grid_1mm, tmp_path):
+    r12, rep12, o12 = liver(grid_1mm, str(tmp_path / "n12"), 12)
+    d12, v12 = o12["metrics"]["dice"], o12["voxels"]
+    assert r12.returncode == 0 and not o12["stalled"]
+    assert d12 >= 0.70  # 0.715 measured
+
+    ra, repa, oa = liver(grid_1mm, str(tmp_path / "auto"), "auto")
+    assert ra.returncode == 0, ra.stderr
+    assert repa["config"]["mesh_resolution"] > 12
+    assert repa["config"]["refined_from_first_run"] is True
+    assert not oa["stalled"] and repa["stalled_objects"] == 0
+    assert oa["voxels"] >= 0.98 * v12
+    assert oa["metrics"]["dice"] >= d12 - 0.01  # 0.749 against 0.715 measured
+
+    for n in (24, 49):
+        r, rep, o = liver(grid_1mm, str(tmp_path / f"n{n}"), n)
+        reached = o["voxels"] >= 0.98 * v12
+        print(f"n = {n}: {o['voxels']} voxels against {v12} at n = 12, Dice {o['metrics']['dice']:.3f}, "
+              f"stalled {o['stalled']}, exit {r.returncode}")
+        # Short of n = 12's liver only as a stall, warned about and exit 6,
+        # never as convergence.
+        assert reached or (o["stalled"] and r.returncode == 6 and "stalled" in r.stderr)
+        assert not rep["converged"] or reached
