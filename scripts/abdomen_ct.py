@@ -111,6 +111,7 @@ def main():
     if args.organs:
         wanted = [int(x) for x in args.organs.split(",")]
         organs = [o for o in organs if o[0] in wanted]
+    os.makedirs(args.work, exist_ok=True)
     spacings = ["3", "1"] if args.spacing == "both" else [args.spacing]
     for sp in spacings:
         data_dir = DATA if sp == "3" else resample(3, args.work)

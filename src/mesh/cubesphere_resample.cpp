@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "triangulation.h"
+
 namespace ffseg {
 
 namespace {
@@ -93,6 +95,10 @@ bool ray_weights(const double u[3], const double A[3], const double B[3], const 
 }  // namespace
 
 void resample_cubesphere(const CubeSphere& m, const float* src, uint32_t n_src, double* x) {
+  if (n_src == m.n) {  // the same grid: a copy, bit for bit
+    for (size_t q = 0; q < size_t(3) * m.nv; ++q) x[q] = double(src[q]);
+    return;
+  }
   const SourceGrid g{src, int32_t(n_src)};
   const double N = double(m.n), Ns = double(n_src);
   for (uint32_t v = 0; v < m.nv; ++v) {
@@ -131,7 +137,17 @@ void resample_cubesphere(const CubeSphere& m, const float* src, uint32_t n_src, 
         ++count;
       }
       if (count < 3) continue;
-      const int tris[2][3] = {{0, 1, 2}, {0, 2, 3}};
+      // The quad split as the engine splits it (triangulation.h: the
+      // diagonal whose triangles bend least at the source's positions), so
+      // that the resampled surface is the one the source mesh encloses.
+      bool alt = false;
+      if (count == 4) {
+        double q[4][3];
+        for (int c = 0; c < 4; ++c)
+          for (int d = 0; d < 3; ++d) q[c][d] = double(src[3 * size_t(idx[c]) + d]);
+        alt = detail::split_alt(detail::split_cos(q[0], q[1], q[2], q[3]), detail::split_cos(q[1], q[2], q[3], q[0]));
+      }
+      const int tris[2][3] = {{alt ? 1 : 0, alt ? 2 : 1, alt ? 3 : 2}, {alt ? 1 : 0, alt ? 3 : 2, alt ? 0 : 3}};
       for (int t = 0; t < (count == 4 ? 2 : 1) && !done; ++t) {
         double w[3];
         const int i0 = tris[t][0], i1 = tris[t][1], i2 = tris[t][2];

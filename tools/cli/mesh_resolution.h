@@ -30,6 +30,10 @@ constexpr double kRerunFactor = 1.5;
 // its area at step 60 asks for 49 as at step 200). When it is kept, it
 // goes on stepping from there.
 constexpr int64_t kMeasureSteps = 60;
+// A finer run whose object ends with fewer voxels than its first run's by
+// more than this share stopped short of it: it is refined from the first
+// run's meshes instead (cmd_segment.cpp run_engine).
+constexpr double kShortOfFirstRun = 0.02;
 
 // Area (mm^2) of a triangle mesh: xyz 3 floats per vertex, tris 3 indices each.
 double mesh_area_mm2(const std::vector<float>& xyz, const std::vector<uint32_t>& tris);
