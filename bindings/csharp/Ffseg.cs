@@ -21,10 +21,15 @@ namespace Ffseg {
 public static class Status {
   public const int Ok = 0;
   public const int Converged = 1;
-  // Every object at rest, but some result is no segmentation (StepInfo.ObjectFlags).
+  // Every object at rest, but some result is no segmentation, or only part of
+  // one (StepInfo.ObjectFlags).
   public const int Degenerate = 2;
+  // StepInfo.ObjectFlags / FlagsAll bits.
   public const uint ObjectNoBoundary = 1;
   public const uint ObjectFillsGrid = 2;
+  // Since 0.5.0: came to rest short of (or beyond) its boundary; a partial
+  // result (StepInfo.FarOutward / FarInward give the counts).
+  public const uint ObjectStalled = 4;
   public const int ErrInvalidArgument = -1;
   public const int ErrNullPointer = -2;
   public const int ErrWorkspaceTooSmall = -3;
@@ -144,6 +149,11 @@ public unsafe struct StepInfo {
   public fixed uint ObjectFlags[16];
   public uint FlagsAll;
   public uint Reserved1;
+  // Since 0.5.0, per object: vertices the step guard held back, and those
+  // whose target lay more than a voxel outward / inward.
+  public fixed uint GuardHeld[16];
+  public fixed uint FarOutward[16];
+  public fixed uint FarInward[16];
 }
 
 internal static class Native {
@@ -160,6 +170,8 @@ internal static class Native {
   [DllImport(Lib)] public static extern int ffseg_set_volume(IntPtr e, ref Volume v);
   [DllImport(Lib)] public static extern int ffseg_sample(IntPtr e, double[] pointMm, uint mode, out double value);
   [DllImport(Lib)] public static extern int ffseg_init_sphere(IntPtr e, uint obj, double[] centerMm, double radiusMm);
+  [DllImport(Lib)] public static extern int ffseg_init_mesh(IntPtr e, uint obj, double[] centerMm, double radiusMm,
+                                                            float[] xyz, UIntPtr nVertices);
   [DllImport(Lib)] public static extern int ffseg_step(IntPtr e, ref StepInfo info);
   [DllImport(Lib)] public static extern int ffseg_extract_mesh(IntPtr e, uint obj, float[] xyz, UIntPtr xyzCapacity,
                                                                uint[] tris, UIntPtr triCapacity,
@@ -304,20 +316,40 @@ public sealed class Engine : IDisposable {
     Check(Native.ffseg_init_sphere(Live(), obj, centerMm, radiusMm), raw_);
   }
 
+  // Places an object's mesh from another engine's (coarse to fine): xyz as
+  // ExtractMesh gives it, 3 floats per vertex, from an engine of any mesh
+  // resolution n (6 n^2 vertices), resampled onto this engine's. The
+  // grey-level model comes from the sphere (centerMm, radiusMm) as InitSphere's
+  // does: give the sphere the mesh grew from. On failure the object keeps the
+  // mesh it had.
+  public void InitMesh(uint obj, double[] centerMm, double radiusMm, float[] xyz) {
+    if (centerMm == null || centerMm.Length != 3) throw new ArgumentException("centerMm must hold 3 values", "centerMm");
+    if (xyz == null) throw new ArgumentNullException("xyz");
+    // The count passed is xyz.Length / 3: a partial vertex would be dropped silently.
+    if (xyz.Length % 3 != 0) throw new ArgumentException("xyz must hold 3 floats per vertex", "xyz");
+    Check(Native.ffseg_init_mesh(Live(), obj, centerMm, radiusMm, xyz, new UIntPtr((ulong)(xyz.Length / 3))), raw_);
+  }
+
   // The last Step's status (Status.Ok, Converged or Degenerate).
   public int LastStatus { get; private set; }
+  // The last Step's StepInfo.FlagsAll: every object's Status.Object* flags or-ed.
+  public uint LastFlagsAll { get; private set; }
+  // Some object stalled short of (or beyond) its boundary at the last Step
+  // (LastStatus is then Degenerate).
+  public bool Stalled { get { return (LastFlagsAll & Status.ObjectStalled) != 0; } }
 
   // One deformation step; true once every object has converged.
   public unsafe bool Step(out StepInfo info) {
     info = new StepInfo();
     info.StructSize = (uint)sizeof(StepInfo);
     LastStatus = Check(Native.ffseg_step(Live(), ref info), raw_);
+    LastFlagsAll = info.FlagsAll;
     return LastStatus == Status.Converged;
   }
 
   // Steps until every object is at rest (converged, or Degenerate: see
-  // LastStatus and StepInfo.ObjectFlags) or maxSteps steps were taken;
-  // returns the last step's report.
+  // LastStatus, Stalled and StepInfo.ObjectFlags) or maxSteps steps were
+  // taken; returns the last step's report.
   public StepInfo Run(uint maxSteps, out bool converged) {
     StepInfo info;
     converged = Step(out info);

@@ -211,6 +211,126 @@ static class Tests {
     }
   }
 
+  static long Inside(byte[] m) {
+    long n = 0;
+    foreach (byte b in m) n += b;
+    return n;
+  }
+
+  static double Dice(byte[] a, byte[] b) {
+    long both = 0;
+    for (int i = 0; i < a.Length; ++i) both += a[i] & b[i];
+    return 2.0 * both / (Inside(a) + Inside(b));
+  }
+
+  static Params Binary(double lambdaPosition, double lambdaLaplacian) {
+    Params p = Params.Default();
+    p.TargetMode = TargetMode.Binary;
+    p.LambdaPosition = lambdaPosition;
+    p.LambdaLaplacian = lambdaLaplacian;
+    return p;
+  }
+
+  // A binary ball grown at n = 12, its mesh resampled into an n = 24 engine
+  // (InitMesh) and stepped on to rest: it starts on the coarse surface, and
+  // neither Dice nor the voxel count drops (measured in Rust on the same ball:
+  // Dice 0.9948 -> 0.9998, 11392 -> 11503 of 11507 voxels).
+  static void CoarseToFine() {
+    long[] dims = {48, 48, 48};
+    double[] one = {1, 1, 1}, c = {24.3, 23.8, 24.2};
+    const double r = 14;
+    byte[] truth = Ellipsoid(dims, one, c, new double[] {r, r, r});
+    var m12 = new byte[truth.Length];
+    float[] xyz12;
+    uint[] tris;
+    using (var coarse = new Engine(Small(12))) {
+      coarse.SetParams(Binary(1, 1));
+      coarse.SetVolume(truth, dims);
+      coarse.InitSphere(0, c, 5);
+      bool converged;
+      StepInfo last = coarse.Run(300, out converged);
+      Assert(converged, "n = 12 converged, status " + coarse.LastStatus + " after " + last.StepIndex + " steps");
+      coarse.Rasterize(0, m12);
+      coarse.ExtractMesh(0, out xyz12, out tris);
+      Assert(xyz12.Length == 3 * 6 * 12 * 12, "n = 12 vertex count " + xyz12.Length / 3);
+    }
+    using (var fine = new Engine(Small(24))) {
+      fine.SetParams(Binary(1, 1));
+      fine.SetVolume(truth, dims);
+      fine.InitMesh(0, c, 5, xyz12);
+      float[] start;
+      fine.ExtractMesh(0, out start, out tris);
+      Assert(start.Length == 3 * 6 * 24 * 24, "n = 24 vertex count " + start.Length / 3);
+      double rMin = double.MaxValue;
+      for (int v = 0; v < start.Length / 3; ++v) {
+        double dx = start[3 * v] - c[0], dy = start[3 * v + 1] - c[1], dz = start[3 * v + 2] - c[2];
+        rMin = Math.Min(rMin, Math.Sqrt(dx * dx + dy * dy + dz * dz));
+      }
+      Assert(rMin > r - 2, "a resampled vertex " + rMin + " mm from the centre, not on the coarse surface");
+      // One vertex short of 6 n^2: refused by the library, the mesh kept.
+      var shortXyz = new float[xyz12.Length - 3];
+      Array.Copy(xyz12, shortXyz, shortXyz.Length);
+      FfsegException ex = Throws(() => fine.InitMesh(0, c, 5, shortXyz));
+      Assert(ex.Status == Status.ErrInvalidArgument && ex.Detail.Contains("6 n^2"), ex.Message);
+      float[] kept;
+      fine.ExtractMesh(0, out kept, out tris);
+      for (int i = 0; i < kept.Length; ++i) Assert(kept[i] == start[i], "the refused InitMesh moved vertex " + i / 3);
+      bool threw = false;
+      try {
+        fine.InitMesh(0, c, 5, new float[7]);
+      } catch (ArgumentException) {
+        threw = true;
+      }
+      Assert(threw, "7 floats are refused before the library sees them");
+
+      var m24 = new byte[truth.Length];
+      bool converged;
+      StepInfo last = fine.Run(300, out converged);
+      Assert(converged && !fine.Stalled, "n = 24 converged, status " + fine.LastStatus + " after " + last.StepIndex + " steps");
+      fine.Rasterize(0, m24);
+      double d12 = Dice(m12, truth), d24 = Dice(m24, truth);
+      Assert(d24 >= d12 && d24 > 0.99, "Dice n = 12 " + d12 + ", n = 24 " + d24);
+      Assert(Inside(m24) >= Inside(m12), "voxels " + Inside(m12) + " -> " + Inside(m24));
+    }
+  }
+
+  // A ball of radius 20 around a sphere of 5 with the Laplacian weight a
+  // million times the positional one: the solve barely moves the mesh, which
+  // comes to rest with its targets 15 mm outward. The step must say so
+  // (Degenerate, ObjectStalled), not Converged. With the default weights the
+  // same start converges unflagged, so the flag is the stall's, not the scene's.
+  static void ForcedStallIsReported() {
+    long[] dims = {64, 64, 64};
+    double[] c = {32, 32, 32};
+    byte[] ball = Ellipsoid(dims, new double[] {1, 1, 1}, c, new double[] {20, 20, 20});
+    const int nv = 6 * 12 * 12;
+    foreach (bool held in new[] {true, false}) {
+      using (var e = new Engine(Small(12))) {
+        e.SetParams(held ? Binary(1e-6, 1e6) : Binary(1, 1));
+        e.SetVolume(ball, dims);
+        e.InitSphere(0, c, 5);
+        bool converged;
+        StepInfo last = e.Run(200, out converged);
+        var mask = new byte[ball.Length];
+        e.Rasterize(0, mask);
+        unsafe {
+          string what = (held ? "held" : "free") + ": status " + e.LastStatus + " after " + last.StepIndex +
+                        " steps, flags " + last.ObjectFlags[0] + ", far outward " + last.FarOutward[0] +
+                        ", inward " + last.FarInward[0] + ", " + Inside(mask) + " of " + Inside(ball) + " voxels";
+          if (held) {
+            Assert(!converged && e.LastStatus == Status.Degenerate && e.Stalled, what);
+            Assert(last.ObjectFlags[0] == Status.ObjectStalled && last.FlagsAll == Status.ObjectStalled, what);
+            Assert(last.FarOutward[0] > 0.9 * nv, what);
+            Assert(Inside(mask) < Inside(ball) / 10, what);
+          } else {
+            Assert(converged && !e.Stalled && last.ObjectFlags[0] == 0, what);
+            Assert(last.FarOutward[0] + last.FarInward[0] < 0.05 * nv, what);
+          }
+        }
+      }
+    }
+  }
+
   static void FailedSetVolumeKeepsThePreviousOnePinned() {
     using (var e = new Engine(Small(8))) {
       var good = new byte[20 * 20 * 20];
@@ -287,6 +407,8 @@ static class Tests {
       new KeyValuePair<string, Action>("round trip", RoundTrip),
       new KeyValuePair<string, Action>("a sphere grows onto an ellipsoid", SphereGrowsOntoAnEllipsoid),
       new KeyValuePair<string, Action>("a sphere in empty background is degenerate", EmptyBackgroundIsDegenerate),
+      new KeyValuePair<string, Action>("coarse to fine: n = 12 then InitMesh at n = 24", CoarseToFine),
+      new KeyValuePair<string, Action>("a forced stall is Degenerate with ObjectStalled", ForcedStallIsReported),
       new KeyValuePair<string, Action>("a failed SetVolume keeps the previous volume pinned", FailedSetVolumeKeepsThePreviousOnePinned),
       new KeyValuePair<string, Action>("Dispose releases everything", DisposeReleasesEverything),
       new KeyValuePair<string, Action>("two objects get disjoint bounding regions", TwoObjectsGetDisjointRegions),

@@ -46,5 +46,6 @@ def test_constants_match_the_header():
     assert c["FFSEG_DEGENERATE"] == _abi.DEGENERATE
     assert c["FFSEG_OBJECT_NO_BOUNDARY"] == _abi.OBJECT_NO_BOUNDARY
     assert c["FFSEG_OBJECT_FILLS_GRID"] == _abi.OBJECT_FILLS_GRID
+    assert c["FFSEG_OBJECT_STALLED"] == _abi.OBJECT_STALLED
     assert [c[f"FFSEG_{t}"] for t in ("U8", "I16", "U16", "I32", "F32", "F64")] == \
         [_abi.U8, _abi.I16, _abi.U16, _abi.I32, _abi.F32, _abi.F64]

@@ -12,7 +12,7 @@ use std::os::raw::c_char;
 pub type ffseg_status = i32;
 
 pub const FFSEG_VERSION_MAJOR: u32 = 0;
-pub const FFSEG_VERSION_MINOR: u32 = 4;
+pub const FFSEG_VERSION_MINOR: u32 = 5;
 pub const FFSEG_VERSION_PATCH: u32 = 0;
 pub const FFSEG_VERSION_NUMBER: u32 =
     FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH;
@@ -22,6 +22,8 @@ pub const FFSEG_CONVERGED: ffseg_status = 1;
 pub const FFSEG_DEGENERATE: ffseg_status = 2;
 pub const FFSEG_OBJECT_NO_BOUNDARY: u32 = 1;
 pub const FFSEG_OBJECT_FILLS_GRID: u32 = 2;
+/// Since 0.5.0: came to rest short of (or beyond) its boundary; the step is DEGENERATE.
+pub const FFSEG_OBJECT_STALLED: u32 = 4;
 pub const FFSEG_ERR_INVALID_ARGUMENT: ffseg_status = -1;
 pub const FFSEG_ERR_NULL_POINTER: ffseg_status = -2;
 pub const FFSEG_ERR_WORKSPACE_TOO_SMALL: ffseg_status = -3;
@@ -142,6 +144,10 @@ pub struct ffseg_step_info {
     pub object_flags: [u32; FFSEG_REPORT_OBJECTS],
     pub flags_all: u32,
     pub reserved1: u32,
+    // Since 0.5.0 (a 0.4.0 struct_size ends before these).
+    pub guard_held: [u32; FFSEG_REPORT_OBJECTS],
+    pub far_outward: [u32; FFSEG_REPORT_OBJECTS],
+    pub far_inward: [u32; FFSEG_REPORT_OBJECTS],
 }
 
 impl Default for ffseg_config {
@@ -207,6 +213,16 @@ extern "C" {
         object: u32,
         center_mm: *const f64,
         radius_mm: f64,
+    ) -> ffseg_status;
+    /// Since 0.5.0. `xyz`: `n_vertices` * 3 floats, a cube-sphere mesh as
+    /// `ffseg_extract_mesh` writes it, of any resolution.
+    pub fn ffseg_init_mesh(
+        e: *mut ffseg_engine,
+        object: u32,
+        center_mm: *const f64,
+        radius_mm: f64,
+        xyz: *const f32,
+        n_vertices: usize,
     ) -> ffseg_status;
     pub fn ffseg_step(e: *mut ffseg_engine, info: *mut ffseg_step_info) -> ffseg_status;
     pub fn ffseg_extract_mesh(

@@ -41,7 +41,8 @@ fn rust_layout() -> BTreeMap<String, (usize, usize)> {
         index_to_world, rescale_slope, rescale_intercept]);
     strukt!(m, ffseg_step_info, [struct_size, step_index, active_objects, reserved0,
         mean_displacement_mm, vertices_with_target, flips_avoided, intersections_avoided,
-        border_vertices, stage_us, object_flags, flags_all, reserved1]);
+        border_vertices, stage_us, object_flags, flags_all, reserved1, guard_held, far_outward,
+        far_inward]);
     m
 }
 

@@ -45,8 +45,18 @@ pub use ffseg_sys as sys;
 pub type Config = sys::ffseg_config;
 /// Algorithm parameters (`ffseg_params`); `Params::default()` is the library's default.
 pub type Params = sys::ffseg_params;
-/// What one step did (`ffseg_step_info`).
+/// What one step did (`ffseg_step_info`): per object (at most
+/// `sys::FFSEG_REPORT_OBJECTS`) `object_flags`, and since 0.5.0 `guard_held`,
+/// `far_outward`, `far_inward`.
 pub type StepInfo = sys::ffseg_step_info;
+
+/// `StepInfo::object_flags` bits: no vertex ever found a boundary.
+pub const OBJECT_NO_BOUNDARY: u32 = sys::FFSEG_OBJECT_NO_BOUNDARY;
+/// ... the object fills most of the grid (a leak).
+pub const OBJECT_FILLS_GRID: u32 = sys::FFSEG_OBJECT_FILLS_GRID;
+/// ... (since 0.5.0) it came to rest short of (or beyond) its boundary: its
+/// mesh is a partial result; `far_outward` / `far_inward` give the counts.
+pub const OBJECT_STALLED: u32 = sys::FFSEG_OBJECT_STALLED;
 
 /// The library's version, MAJOR*10000 + MINOR*100 + PATCH.
 pub fn version() -> u32 {
@@ -254,10 +264,20 @@ pub struct Mesh {
 pub struct Step {
     /// Every object has converged (`FFSEG_CONVERGED`).
     pub converged: bool,
-    /// Every object has come to rest but some result is no segmentation
-    /// (`FFSEG_DEGENERATE`; which and why: `info.object_flags`).
+    /// Every object has come to rest but some result is no segmentation, or
+    /// only part of one (`FFSEG_DEGENERATE`; which and why: `info.object_flags`,
+    /// `OBJECT_*`).
     pub degenerate: bool,
     pub info: StepInfo,
+}
+
+impl Step {
+    /// Some object stalled short of (or beyond) its boundary
+    /// (`OBJECT_STALLED` in `info.flags_all`, which also counts objects past
+    /// the report's first `sys::FFSEG_REPORT_OBJECTS`).
+    pub fn stalled(&self) -> bool {
+        self.info.flags_all & OBJECT_STALLED != 0
+    }
 }
 
 /// An engine inside a borrowed workspace. Destroyed on drop (the workspace is
@@ -306,6 +326,27 @@ impl<'ws, 'vol> Engine<'ws, 'vol> {
             .map(|_| ())
     }
 
+    /// Places an object's mesh from another engine's (coarse to fine):
+    /// `vertices` as `mesh()` returns them, from an engine of any mesh
+    /// resolution n (6 n^2 vertices), resampled onto this engine's. The
+    /// grey-level model is learned from the sphere (`center_mm`, `radius_mm`)
+    /// as `init_sphere` does: give the sphere the mesh grew from. On failure
+    /// the object keeps the mesh it had.
+    pub fn init_mesh(&mut self, object: u32, center_mm: [f64; 3], radius_mm: f64, vertices: &[[f32; 3]]) -> Result<()> {
+        // [f32; 3] has no padding, so the slice is the 3 n_vertices floats the C call reads.
+        self.check(unsafe {
+            sys::ffseg_init_mesh(
+                self.raw.as_ptr(),
+                object,
+                center_mm.as_ptr(),
+                radius_mm,
+                vertices.as_ptr() as *const f32,
+                vertices.len(),
+            )
+        })
+        .map(|_| ())
+    }
+
     /// One deformation step of every placed object.
     pub fn step(&mut self) -> Result<Step> {
         let mut info = StepInfo::default();
@@ -313,8 +354,8 @@ impl<'ws, 'vol> Engine<'ws, 'vol> {
         Ok(Step { converged: st == sys::FFSEG_CONVERGED, degenerate: st == sys::FFSEG_DEGENERATE, info })
     }
 
-    /// Steps until every object has come to rest (converged or degenerate)
-    /// or `max_steps` steps were taken.
+    /// Steps until every object has come to rest (converged or degenerate,
+    /// a stall included) or `max_steps` steps were taken.
     pub fn run(&mut self, max_steps: u32) -> Result<Step> {
         let mut last = self.step()?;
         while !last.converged && !last.degenerate && last.info.step_index < max_steps {
