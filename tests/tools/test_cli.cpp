@@ -856,6 +856,30 @@ TEST_CASE("cli: a volume of a single slice is refused (exit 3) with the engine's
   CHECK(r.err.find("a single slice") != std::string::npos);
 }
 
+namespace {
+
+// A ball of radius 14 mm (value 100) at (16, 16, 16) mm on a 64^3 grid of
+// 0.5 mm voxels: a surface of 2463 mm^2 that asks for n = 27.
+NiftiImage large_ball() {
+  Balls b = make_balls({}, {});
+  NiftiImage& img = b.image;
+  img.dims[0] = img.dims[1] = img.dims[2] = 64;
+  const double A[16] = {0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1};
+  std::memcpy(img.index_to_world, A, sizeof A);
+  for (int a = 0; a < 3; ++a) img.spacing[a] = img.pixdim[a + 1] = 0.5;
+  img.data.assign(img.voxel_count(), 0);
+  size_t idx = 0;
+  for (int k = 0; k < 64; ++k)
+    for (int j = 0; j < 64; ++j)
+      for (int i = 0; i < 64; ++i, ++idx) {
+        const double x = 0.5 * i - 16, y = 0.5 * j - 16, z = 0.5 * k - 16;
+        img.data[idx] = x * x + y * y + z * z <= 14.0 * 14.0 ? 100 : 0;
+      }
+  return img;
+}
+
+}  // namespace
+
 TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small ball keeps the first run, a large one runs again finer") {
   Scratch s;
   {  // kBall (9 mm on 1-1.5 mm voxels) asks for about 9: the first run at 12 stands.
@@ -874,21 +898,7 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     CHECK(cfg->get("asked_mesh_resolution")->as_number() <= 18);
   }
   {  // A 14 mm ball on 0.5 mm voxels (area 2463 mm^2, quads of 0.75 mm): n = 27.
-    Balls b = make_balls({}, {});
-    NiftiImage& img = b.image;
-    img.dims[0] = img.dims[1] = img.dims[2] = 64;
-    const double A[16] = {0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1};
-    std::memcpy(img.index_to_world, A, sizeof A);
-    for (int a = 0; a < 3; ++a) img.spacing[a] = img.pixdim[a + 1] = 0.5;
-    img.data.assign(img.voxel_count(), 0);
-    size_t idx = 0;
-    for (int k = 0; k < 64; ++k)
-      for (int j = 0; j < 64; ++j)
-        for (int i = 0; i < 64; ++i, ++idx) {
-          const double x = 0.5 * i - 16, y = 0.5 * j - 16, z = 0.5 * k - 16;
-          img.data[idx] = x * x + y * y + z * z <= 14.0 * 14.0 ? 100 : 0;
-        }
-    write(s / "large.nii.gz", img);
+    write(s / "large.nii.gz", large_ball());
     const Run r = ffseg(s, "segment " + (s / "large.nii.gz") + " --target binary --sphere 16,16,16,4 --out " + (s / "b"));
     INFO("stderr: " << r.err);
     REQUIRE(r.code == 0);
@@ -966,21 +976,7 @@ TEST_CASE("cli: a fixed resolution above 12 has a first run at 12 and ends no sm
   // n = 12 and not smaller than 98% of it (else it is refined from the first
   // run, config.refined_from_first_run).
   Scratch s;
-  Balls b = make_balls({}, {});
-  NiftiImage& img = b.image;
-  img.dims[0] = img.dims[1] = img.dims[2] = 64;
-  const double A[16] = {0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1};
-  std::memcpy(img.index_to_world, A, sizeof A);
-  for (int a = 0; a < 3; ++a) img.spacing[a] = img.pixdim[a + 1] = 0.5;
-  img.data.assign(img.voxel_count(), 0);
-  size_t idx = 0;
-  for (int k = 0; k < 64; ++k)
-    for (int j = 0; j < 64; ++j)
-      for (int i = 0; i < 64; ++i, ++idx) {
-        const double x = 0.5 * i - 16, y = 0.5 * j - 16, z = 0.5 * k - 16;
-        img.data[idx] = x * x + y * y + z * z <= 14.0 * 14.0 ? 100 : 0;
-      }
-  write(s / "large.nii.gz", img);
+  write(s / "large.nii.gz", large_ball());
   const std::string base = "segment " + (s / "large.nii.gz") + " --target binary --sphere 16,16,16,2 --truth " +
                            (s / "large.nii.gz") + " --truth-labels 100";
   const Run r12 = ffseg(s, base + " --mesh-resolution 12 --out " + (s / "n12"));
