@@ -5,6 +5,7 @@
 
 #include <dcmtk/config/osconfig.h>
 #include <dcmtk/dcmdata/dcdeftag.h>
+#include <dcmtk/dcmdata/dcfilefo.h>
 #include <dcmtk/dcmdata/dcuid.h>
 #include <dcmtk/dcmfg/fgderimg.h>
 #include <dcmtk/dcmfg/fgfracon.h>
@@ -119,6 +120,12 @@ bool write_seg(const std::string& path, const NiftiImage& grid, const std::vecto
 
     const size_t per = size_t(grid.dims[0]) * size_t(grid.dims[1]);
     std::vector<Uint8> frame(per);
+    // The frames' bits, one after the other with no padding between frames
+    // (PS3.5 8.1.1): DCMTK 3.6.7 (Debian 12) shifts every frame after the
+    // first whose bit count is not a multiple of 8 by up to a byte, so its
+    // Pixel Data is replaced by this.
+    std::vector<Uint8> packed;
+    size_t bit = 0;
     for (const DicomSegment& s : segments) {
         Uint16 number = 0;
         if (!add_segment(*seg, s, &number, ck)) return false;
@@ -133,7 +140,11 @@ bool write_seg(const std::string& path, const NiftiImage& grid, const std::vecto
         const bool empty = slices.empty();
         if (empty) slices.push_back(grid.dims[2] / 2);
         for (int k : slices) {
-            for (size_t q = 0; q < per; ++q) frame[q] = !empty && s.mask[size_t(k) * per + q] ? 1 : 0;
+            packed.resize((bit + per + 7) / 8, 0);
+            for (size_t q = 0; q < per; ++q, ++bit) {
+                frame[q] = !empty && s.mask[size_t(k) * per + q] ? 1 : 0;
+                if (frame[q]) packed[bit >> 3] |= Uint8(1u << (bit & 7));
+            }
             FGPlanePosPatient position;
             const std::array<double, 3>& p = planes.positions[size_t(k)];
             ck(position.setImagePositionPatient(dicom_ds(p[0]).c_str(), dicom_ds(p[1]).c_str(), dicom_ds(p[2]).c_str()),
@@ -176,7 +187,12 @@ bool write_seg(const std::string& path, const NiftiImage& grid, const std::vecto
             return false;
         }
     }
-    return ck(seg->saveFile(path.c_str(), EXS_LittleEndianExplicit), "writing the file");
+    DcmFileFormat file;
+    if (!ck(seg->writeDataset(*file.getDataset()), "encoding the segmentation")) return false;
+    if (!ck(file.getDataset()->putAndInsertUint8Array(DCM_PixelData, packed.data(), Uint32(packed.size())),
+            "PixelData"))
+        return false;
+    return ck(file.saveFile(path.c_str(), EXS_LittleEndianExplicit), "writing the file");
 }
 
 }  // namespace
