@@ -1,0 +1,105 @@
+"""Label maps and references on another storage order of the volume's grid:
+`--truth`, `--sphere-from-label` and `ffseg eval` accept a map whose axes are
+permuted or reversed (the same voxel centres) and re-index it exactly; a grid
+that truly differs is refused naming what differs, or resampled by nearest
+neighbour with --resample-labels and a warning. And overlay.png's view."""
+import json
+
+import numpy as np
+import pytest
+
+from conftest import MRI, need_mricron, run_cli
+
+
+def restored(path, out, perm, flips):
+    """The label map with its axes in order `perm` and the axes in `flips`
+    reversed, the affine changed so that every voxel keeps its centre."""
+    import nibabel
+    im = nibabel.load(path)
+    data, A = np.asarray(im.dataobj), im.affine.copy()
+    for a in flips:
+        data = np.flip(data, axis=a)
+        A[:3, 3] += A[:3, a] * (data.shape[a] - 1)
+        A[:3, a] = -A[:3, a]
+    data = np.ascontiguousarray(np.transpose(data, perm))
+    B = np.eye(4)
+    B[:3, :3] = A[:3, :3][:, perm]
+    B[:3, 3] = A[:3, 3]
+    nibabel.save(nibabel.Nifti1Image(data, B), str(out))
+    return data, B
+
+
+@pytest.fixture(scope="module")
+def aal_reordered(tmp_path_factory):
+    need_mricron()
+    d = tmp_path_factory.mktemp("aal")
+    # The second axis reversed (LPS <-> RAS storage), then the axes permuted.
+    restored(f"{MRI}/aal.nii.gz", d / "aal_flipped.nii.gz", [0, 1, 2], [1])
+    restored(f"{MRI}/aal.nii.gz", d / "aal_permuted.nii.gz", [2, 0, 1], [0, 1])
+    return d
+
+
+def report(out):
+    return json.loads((out / "report.json").read_text())
+
+
+def test_truth_and_sphere_from_label_in_another_storage_order(aal_reordered, tmp_path):
+    ref_out, got_out = tmp_path / "ref", tmp_path / "got"
+    run_cli("segment", f"{MRI}/ch2.nii.gz", "--sphere-from-label", f"{MRI}/aal.nii.gz:73",
+            "--truth", f"{MRI}/aal.nii.gz", "--mesh-resolution", "12", "--out", ref_out, "-q")
+    for name in ("aal_flipped.nii.gz", "aal_permuted.nii.gz"):
+        m = aal_reordered / name
+        r = run_cli("segment", f"{MRI}/ch2.nii.gz", "--sphere-from-label", f"{m}:73", "--truth", m,
+                    "--mesh-resolution", "12", "--out", got_out, "--force")
+        assert "re-indexed exactly" in r.stderr
+        a, b = report(ref_out)["objects"][0], report(got_out)["objects"][0]
+        # The same protocol sphere (the label's deepest voxel is the same voxel),
+        # the same segmentation and the same metrics against the same reference.
+        assert a["sphere"]["label_map"] != b["sphere"]["label_map"]
+        a["sphere"].pop("label_map"), b["sphere"].pop("label_map")
+        for key in ("sphere", "voxels", "metrics"):
+            assert a[key] == b[key], (name, key)
+
+
+def test_eval_reindexes_truth_and_refuses_another_grid(aal_reordered, tmp_path):
+    r = run_cli("eval", f"{MRI}/aal.nii.gz", aal_reordered / "aal_permuted.nii.gz", "--labels", "73,77", "--json")
+    for e in json.loads(r.stdout)["labels"]:
+        assert e["dice"] == 1.0 and e["pred_voxels"] == e["truth_voxels"] > 0
+    # 0.6 voxel off: another grid.
+    import nibabel
+    im = nibabel.load(f"{MRI}/aal.nii.gz")
+    A = im.affine.copy()
+    A[0, 3] += 0.6
+    nibabel.save(nibabel.Nifti1Image(np.asarray(im.dataobj), A), str(tmp_path / "shifted.nii.gz"))
+    r = run_cli("eval", f"{MRI}/aal.nii.gz", tmp_path / "shifted.nii.gz", "--labels", "73", check=False)
+    assert r.returncode == 3
+    assert "grids differ: voxel centres differ" in r.stderr and "0.6 mm apart" in r.stderr
+    assert "--resample-labels" in r.stderr
+    r = run_cli("eval", f"{MRI}/aal.nii.gz", tmp_path / "shifted.nii.gz", "--labels", "73", "--json",
+                "--resample-labels")
+    assert "warning" in r.stderr and "nearest neighbour" in r.stderr
+    e = json.loads(r.stdout)["labels"][0]
+    # Each centre's nearest voxel is the next one along x: the map moves by
+    # one voxel, the overlap stays high but not perfect.
+    assert 0.7 < e["dice"] < 1.0
+
+
+def test_truth_on_another_grid_is_refused_before_any_work(tmp_path):
+    need_mricron()
+    import nibabel
+    im = nibabel.load(f"{MRI}/aal.nii.gz")
+    small = np.asarray(im.dataobj)[:, :, :100]
+    nibabel.save(nibabel.Nifti1Image(small, im.affine), str(tmp_path / "small.nii.gz"))
+    r = run_cli("segment", f"{MRI}/ch2.nii.gz", "--sphere", "-20,14,-4,3", "--truth", tmp_path / "small.nii.gz",
+                "--out", tmp_path / "o", check=False)
+    assert r.returncode == 3 and "grids differ: dimensions differ (181x217x181 vs 181x217x100)" in r.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_overlay_view_is_recorded(tmp_path):
+    need_mricron()
+    for args, view in (([], "radiological"), (["--view", "neurological"], "neurological")):
+        out = tmp_path / view
+        run_cli("segment", f"{MRI}/ch2.nii.gz", "--sphere", "-20,14,-4,3", "--mesh-resolution", "8",
+                "--max-steps", "3", "--out", out, "-q", *args)
+        assert report(out)["outputs"]["overlay_view"] == view
