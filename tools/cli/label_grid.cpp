@@ -21,7 +21,8 @@ std::string axis_text(const ffseg_tools::AxisMap& m) {
 }  // namespace
 
 ffseg_tools::NiftiImage read_on_grid(const ffseg_tools::NiftiImage& grid, const std::string& grid_path,
-                                     const std::string& path, const std::string& role, bool resample, bool quiet) {
+                                     const std::string& path, const std::string& role, bool resample, bool quiet,
+                                     bool own_affine) {
   ffseg_tools::NiftiImage other = read_image(path);
   ffseg_tools::AxisMap m;
   std::string why;
@@ -33,6 +34,8 @@ ffseg_tools::NiftiImage read_on_grid(const ffseg_tools::NiftiImage& grid, const 
                    grid_path.c_str());
     return ffseg_tools::reindex_to(grid, other, m);
   }
+  if (own_affine && other.dims[0] == grid.dims[0] && other.dims[1] == grid.dims[1] && other.dims[2] == grid.dims[2])
+    return other;
   if (!resample)
     fail(kExitInput, "grids differ: " + why + " between " + grid_path + " and " + role + " " + path +
                          " (--resample-labels resamples it by nearest neighbour)");

@@ -110,9 +110,9 @@ SphereArg parse_sphere_from_label(const std::string& opt, const std::string& v) 
 // The evaluation-protocol sphere (PEERS.md) of every --sphere-from-label object:
 // centre = the label voxel farthest from the label's border (Euclidean distance
 // in mm; beyond the grid counts as outside), radius = half that distance, the
-// centre taken to world mm. Each label map is read once, onto the volume's
-// grid (label_grid.h); `known` holds maps already on it (the --truth map), by
-// path.
+// centre taken to world mm with the map's affine. Each label map is read once,
+// onto the volume's grid (label_grid.h) or, with the same dimensions, on its
+// own affine; `known` holds maps already read (the --truth map), by path.
 void resolve_label_spheres(std::vector<SphereArg>* spheres, const ffseg_tools::NiftiImage& img,
                            const std::string& volume_path,
                            std::map<std::string, const ffseg_tools::NiftiImage*> known, bool resample,
@@ -123,7 +123,7 @@ void resolve_label_spheres(std::vector<SphereArg>* spheres, const ffseg_tools::N
     const ffseg_tools::NiftiImage*& lm = known[s.label_path];
     if (!lm) {
       owned.push_back(std::make_unique<ffseg_tools::NiftiImage>(
-          read_on_grid(img, volume_path, s.label_path, "--sphere-from-label", resample, quiet)));
+          read_on_grid(img, volume_path, s.label_path, "--sphere-from-label", resample, quiet, true)));
       lm = owned.back().get();
     }
     size_t count = 0;
@@ -184,8 +184,11 @@ const char* const kSegmentUsageText =
     "                  labels.nrrd / labels.mha for NRRD / MetaImage input\n"
     "  overlay.png     axial, coronal and sagittal slices through each object's\n"
     "                  centre with every object's contour in its own colour\n"
+    "                  (radiological order: the patient's right on the left; --view)\n"
     "                  (with --truth: the reference label as a dashed yellow contour,\n"
     "                  a colour no object gets)\n"
+    "  segmentation.dcm  for a DICOM series as VOLUME: a DICOM Segmentation of the\n"
+    "                  label map referencing the series (--dicom-seg)\n"
     "  report.json     input, steps, convergence, volume (ml), mesh size, metrics,\n"
     "                  time per stage (regions: the bounding regions of several\n"
     "                  objects), border vertices and shared voxels per object,\n"
@@ -203,7 +206,8 @@ const char* const kSegmentUsageText =
     "  --sphere-voxel I,J,K,R  centre in voxel indices (may be fractional), radius in mm\n"
     "  --sphere-from-label LABELS:L\n"
     "                          the evaluation-protocol sphere of label L of the label\n"
-    "                          map LABELS (on VOLUME's grid, see --truth): centre = the label's\n"
+    "                          map LABELS (VOLUME's voxel centres in any storage order, see\n"
+    "                          --truth, or VOLUME's dims on any affine): centre = the label's\n"
     "                          voxel farthest from its border (Euclidean, mm), in world\n"
     "                          mm by LABELS' affine; radius = half that distance.\n"
     "                          Printed on stderr; report.json gives sphere_source.\n"
