@@ -44,16 +44,22 @@ double signed_area_xy(const Polygon& p) {
   return a / 2;
 }
 
+// The torus (radii 10, 3; nu x nv) cut by the plane n . x = d.
+std::vector<Polygon> cut_torus(int nu, int nv, const double n[3], double d) {
+  std::vector<float> xyz;
+  std::vector<uint32_t> tris;
+  torus(10, 3, nu, nv, 0, &xyz, &tris);
+  std::vector<Polygon> polys;
+  std::string err;
+  REQUIRE_MESSAGE(plane_contours(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3, n, d, &polys, &err), err);
+  return polys;
+}
+
 }  // namespace
 
 TEST_CASE("slice contours: a torus cut across its hole gives an outer and an inner polygon on the plane") {
-  std::vector<float> xyz;
-  std::vector<uint32_t> tris;
-  torus(10, 3, 96, 48, 0, &xyz, &tris);
   const double n[3] = {0, 0, 1};
-  std::vector<Polygon> polys;
-  std::string err;
-  REQUIRE(plane_contours(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3, n, 0.7, &polys, &err));
+  const std::vector<Polygon> polys = cut_torus(96, 48, n, 0.7);
   REQUIRE(polys.size() == 2);
   double areas[2];
   for (int q = 0; q < 2; ++q) {
@@ -68,19 +74,13 @@ TEST_CASE("slice contours: a torus cut across its hole gives an outer and an inn
 }
 
 TEST_CASE("slice contours: a plane through the torus's side gives two separate pieces; above it none") {
-  std::vector<float> xyz;
-  std::vector<uint32_t> tris;
-  torus(10, 3, 64, 32, 0, &xyz, &tris);
   const double n[3] = {1, 0, 0};
-  std::vector<Polygon> polys;
-  std::string err;
-  REQUIRE(plane_contours(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3, n, 0.0, &polys, &err));
+  const std::vector<Polygon> polys = cut_torus(64, 32, n, 0.0);
   CHECK(polys.size() == 2);
   for (const Polygon& p : polys)
     for (const auto& q : p) CHECK(std::fabs(q[0]) < 1e-9);
   const double up[3] = {0, 0, 1};
-  REQUIRE(plane_contours(xyz.data(), xyz.size() / 3, tris.data(), tris.size() / 3, up, 3.5, &polys, &err));
-  CHECK(polys.empty());
+  CHECK(cut_torus(64, 32, up, 3.5).empty());
 }
 
 TEST_CASE("slice contours: the planes of a grid's slices, and an open mesh refused") {

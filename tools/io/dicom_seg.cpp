@@ -19,25 +19,13 @@
 
 #include "dicom_planes.h"
 #include "dicom_study.h"
+#include "dicom_write.h"
 
 namespace ffseg_tools {
 
 namespace {
 
-// DCMTK reports through OFCondition; every call is checked and named.
-struct Checked {
-    std::string* err;
-    bool ok = true;
-    bool operator()(const OFCondition& c, const char* what) {
-        if (ok && c.bad()) {
-            *err = std::string(what) + ": " + c.text();
-            ok = false;
-        }
-        return ok;
-    }
-};
-
-bool set_patient_study(DcmSegmentation& seg, const DicomSource& src, Checked& ck) {
+bool set_patient_study(DcmSegmentation& seg, const DicomSource& src, DcmtkCheck& ck) {
     if (!src.generated()) {
         ck(seg.importFromSourceImage(src.files[0].c_str()), "importing the source series' patient and study");
         return ck(seg.getFrameOfReference().setFrameOfReferenceUID(src.frame_of_reference_uid.c_str()),
@@ -52,7 +40,7 @@ bool set_patient_study(DcmSegmentation& seg, const DicomSource& src, Checked& ck
     return ck(seg.getFrameOfReference().setFrameOfReferenceUID(src.frame_of_reference_uid.c_str()), "FrameOfReferenceUID");
 }
 
-bool add_segment(DcmSegmentation& seg, const DicomSegment& s, Uint16* number, Checked& ck) {
+bool add_segment(DcmSegmentation& seg, const DicomSegment& s, Uint16* number, DcmtkCheck& ck) {
     DcmSegment* d = nullptr;
     // The object is an anatomical structure the user pointed at; which one
     // ffseg does not know, so the type stays the general "Organ".
@@ -84,7 +72,7 @@ bool write_seg(const std::string& path, const NiftiImage& grid, const std::vecto
         *err = "no segment";
         return false;
     }
-    Checked ck{err};
+    DcmtkCheck ck{err};
     IODGeneralEquipmentModule::EquipmentInfo equipment("ffseg", "ffseg", "1", "ffseg");
     ContentIdentificationMacro content("1", "FFSEG", "ffseg deformable-mesh segmentation", "ffseg^");
     DcmSegmentation* raw = nullptr;
@@ -199,16 +187,8 @@ bool write_seg(const std::string& path, const NiftiImage& grid, const std::vecto
 
 bool dicom_seg_write(const std::string& path, const NiftiImage& grid, const std::vector<DicomSegment>& segments,
                      const DicomSource& source, std::string* err) {
-    std::string e;
-    bool ok = false;
-    try {
-        dicom_quiet_logs();
-        ok = write_seg(path, grid, segments, source, &e);
-    } catch (const std::exception& ex) {
-        e = ex.what();
-    }
-    if (!ok) *err = "cannot write the DICOM segmentation " + path + ": " + e;
-    return ok;
+    return dicom_write_guarded(
+        "DICOM segmentation", path, [&](std::string* e) { return write_seg(path, grid, segments, source, e); }, err);
 }
 
 }  // namespace ffseg_tools

@@ -5,7 +5,6 @@
 
 #include <dcmtk/config/osconfig.h>
 #include <dcmtk/dcmdata/dcuid.h>
-#include <dcmtk/oflog/oflog.h>
 
 namespace ffseg_tools {
 
@@ -13,14 +12,6 @@ std::string dicom_new_uid() {
     char b[100];
     dcmGenerateUniqueIdentifier(b, SITE_INSTANCE_UID_ROOT);
     return b;
-}
-
-void dicom_quiet_logs() {
-    static const bool once = [] {
-        OFLog::configure(OFLogger::ERROR_LOG_LEVEL);
-        return true;
-    }();
-    (void)once;
 }
 
 std::string dicom_now(const char* format) {

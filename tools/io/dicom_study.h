@@ -13,9 +13,6 @@
 namespace ffseg_tools {
 
 std::string dicom_new_uid();
-// DCMTK logs its warnings on the console; the writers report failures
-// themselves, so only DCMTK's errors are let through.
-void dicom_quiet_logs();
 // The current UTC date or time by strftime format ("%Y%m%d", "%H%M%S").
 std::string dicom_now(const char* format);
 

@@ -8,29 +8,18 @@
 
 #include "dicom_planes.h"
 #include "dicom_study.h"
+#include "dicom_write.h"
 
 namespace ffseg_tools {
 
 namespace {
-
-struct Checked {
-    std::string* err;
-    bool ok = true;
-    bool operator()(const OFCondition& c, const std::string& what) {
-        if (ok && c.bad()) {
-            *err = what + ": " + c.text();
-            ok = false;
-        }
-        return ok;
-    }
-};
 
 // The SOP class a structure set names for the study it references (DICOM
 // PS3.3 C.8.8.5: Detached Study Management, retired but still the value
 // planning systems expect).
 constexpr const char* kStudyComponentClass = "1.2.840.10008.3.1.2.3.1";
 
-bool set_patient_study(DRTStructureSetIOD& rt, const DicomSource& src, Checked& ck) {
+bool set_patient_study(DRTStructureSetIOD& rt, const DicomSource& src, DcmtkCheck& ck) {
     if (!src.generated()) {
         DcmFileFormat file;
         if (!ck(file.loadFile(src.files[0].c_str()), "reading " + src.files[0])) return false;
@@ -45,7 +34,7 @@ bool set_patient_study(DRTStructureSetIOD& rt, const DicomSource& src, Checked& 
     return ck(rt.setStudyID("1"), "StudyID");
 }
 
-bool add_references(DRTStructureSetIOD& rt, const DicomSource& src, Checked& ck) {
+bool add_references(DRTStructureSetIOD& rt, const DicomSource& src, DcmtkCheck& ck) {
     DRTReferencedFrameOfReferenceSequence::Item* f = nullptr;
     if (!ck(rt.getReferencedFrameOfReferenceSequence().addItem(f), "ReferencedFrameOfReferenceSequence")) return false;
     ck(f->setFrameOfReferenceUID(src.frame_of_reference_uid.c_str()), "FrameOfReferenceUID");
@@ -66,7 +55,7 @@ bool add_references(DRTStructureSetIOD& rt, const DicomSource& src, Checked& ck)
     return ck.ok;
 }
 
-bool add_roi(DRTStructureSetIOD& rt, const RtRoi& roi, const DicomSource& src, Checked& ck) {
+bool add_roi(DRTStructureSetIOD& rt, const RtRoi& roi, const DicomSource& src, DcmtkCheck& ck) {
     const std::string number = std::to_string(roi.number);
     DRTStructureSetROISequence::Item* s = nullptr;
     if (!ck(rt.getStructureSetROISequence().addItem(s), "StructureSetROISequence")) return false;
@@ -118,7 +107,7 @@ bool write_rt(const std::string& path, const NiftiImage& grid, const std::vector
                 *err = "ROI " + roi.name + ": a contour is not a polygon on a slice of the grid";
                 return false;
             }
-    Checked ck{err};
+    DcmtkCheck ck{err};
     DRTStructureSetIOD rt;
     if (!set_patient_study(rt, src, ck)) return false;
     const std::string date = dicom_now("%Y%m%d"), time_of_day = dicom_now("%H%M%S");
@@ -149,16 +138,8 @@ bool write_rt(const std::string& path, const NiftiImage& grid, const std::vector
 
 bool rtstruct_write(const std::string& path, const NiftiImage& grid, const std::vector<RtRoi>& rois,
                     const DicomSource& source, std::string* err) {
-    std::string e;
-    bool ok = false;
-    try {
-        dicom_quiet_logs();
-        ok = write_rt(path, grid, rois, source, &e);
-    } catch (const std::exception& ex) {
-        e = ex.what();
-    }
-    if (!ok) *err = "cannot write the RT structure set " + path + ": " + e;
-    return ok;
+    return dicom_write_guarded(
+        "RT structure set", path, [&](std::string* e) { return write_rt(path, grid, rois, source, e); }, err);
 }
 
 }  // namespace ffseg_tools

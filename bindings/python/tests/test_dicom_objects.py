@@ -318,3 +318,20 @@ def test_dicom_output_paths_are_checked_first(tmp_path):
         r = run_cli("segment", f"{MRI}/ch2.nii.gz", "--sphere", "0,0,0,5", "--out", tmp_path / "o", *extra, check=False)
         assert r.returncode == 2 and message in r.stderr, (extra, r.stderr)
         assert not (tmp_path / "o").exists()
+
+
+def test_a_series_without_frame_of_reference_gets_a_new_one_and_a_note(tmp_path):
+    need_dicom3tools()
+    import pydicom
+    vol = ball((24, 22, 12), centre=(11.0, 10.0, 6.0), radius=4.0, dtype=np.int16, inside=300)
+    A = np.diag([1.0, 1.0, 2.0, 1.0])
+    F.write_dicom_series(str(tmp_path / "s"), vol, A, with_frame_of_reference=False)
+    out = tmp_path / "out"
+    r = run_cli("segment", tmp_path / "s", "--target", "binary", "--sphere", "11,10,12,2", "--out", out)
+    assert "without FrameOfReferenceUID" in r.stderr
+    assert "new frame of reference" in json.loads((out / "report.json").read_text())["outputs"]["dicom_note"]
+    seg = pydicom.dcmread(str(out / "segmentation.dcm"))
+    src = pydicom.dcmread(str(tmp_path / "s" / "IM0000.dcm"))
+    assert "FrameOfReferenceUID" not in src and seg.FrameOfReferenceUID
+    assert seg.StudyInstanceUID == src.StudyInstanceUID
+    assert dciodvfy_errors(str(out / "segmentation.dcm")) == []
