@@ -97,7 +97,7 @@ int cmd_eval(int argc, char** argv) {
   }
 
   const ffseg_tools::NiftiImage pred = read_image(files[0]);
-  const ffseg_tools::NiftiImage truth = read_on_grid(pred, files[0], files[1], "TRUTH", resample, json);
+  const ffseg_tools::NiftiImage truth = read_on_grid(pred, files[0], files[1], "TRUTH", resample, false);
   if (!have_labels) {
     std::set<int64_t> all = labels_in(pred, files[0]);
     for (int64_t l : labels_in(truth, files[1])) all.insert(l);

@@ -84,13 +84,13 @@ bool match_voxel_centres(const NiftiImage& ref, const NiftiImage& other, AxisMap
     for (const auto& p : perms) {
         if (other.dims[p[0]] != ref.dims[0] || other.dims[p[1]] != ref.dims[1] || other.dims[p[2]] != ref.dims[2]) continue;
         for (int flips = 0; flips < 8; ++flips) {
+            // A reversed axis of one voxel is the same axis: tried once.
+            if ((flips & 1 && ref.dims[0] == 1) || (flips & 2 && ref.dims[1] == 1) || (flips & 4 && ref.dims[2] == 1)) continue;
             AxisMap c;
             for (int a = 0; a < 3; ++a) {
                 c.axis[a] = p[a];
-                // A reversed axis of one voxel is the same axis.
-                c.reversed[a] = (flips >> a & 1) && ref.dims[a] > 1;
+                c.reversed[a] = flips >> a & 1;
             }
-            if ((flips & 1 && ref.dims[0] == 1) || (flips & 2 && ref.dims[1] == 1) || (flips & 4 && ref.dims[2] == 1)) continue;
             int where[3];
             const double g = corner_gap(ref, other, c, where);
             if (g < best) {
