@@ -91,7 +91,7 @@ bool match_voxel_centres(const NiftiImage& ref, const NiftiImage& other, AxisMap
                 c.axis[a] = p[a];
                 c.reversed[a] = flips >> a & 1;
             }
-            int where[3];
+            int where[3] = {0, 0, 0};
             const double g = corner_gap(ref, other, c, where);
             if (g < best) {
                 best = g;
