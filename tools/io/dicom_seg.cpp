@@ -73,7 +73,7 @@ bool write_seg(const std::string& path, const NiftiImage& grid, const std::vecto
         return false;
     }
     DcmtkCheck ck{err};
-    IODGeneralEquipmentModule::EquipmentInfo equipment("ffseg", "ffseg", "1", "ffseg");
+    IODGeneralEquipmentModule::EquipmentInfo equipment("ffseg", "ffseg", "1", "ffseg " FFSEG_TOOLS_VERSION);
     ContentIdentificationMacro content("1", "FFSEG", "ffseg deformable-mesh segmentation", "ffseg^");
     DcmSegmentation* raw = nullptr;
     if (!ck(DcmSegmentation::createBinarySegmentation(raw, Uint16(grid.dims[1]), Uint16(grid.dims[0]), equipment, content),

@@ -117,6 +117,7 @@ bool write_rt(const std::string& path, const NiftiImage& grid, const std::vector
     ck(rt.setInstanceCreationTime(time_of_day.c_str()), "InstanceCreationTime");
     ck(rt.setModality("RTSTRUCT"), "Modality");
     ck(rt.setManufacturer("ffseg"), "Manufacturer");
+    ck(rt.setSoftwareVersions("ffseg " FFSEG_TOOLS_VERSION), "SoftwareVersions");
     ck(rt.setSeriesInstanceUID(dicom_new_uid().c_str()), "SeriesInstanceUID");
     ck(rt.setSeriesNumber("301"), "SeriesNumber");
     ck(rt.setSeriesDescription(src.generated() ? "ffseg structures (no source images)" : "ffseg structures"),
