@@ -4,11 +4,12 @@ permuted or reversed (the same voxel centres) and re-index it exactly; a grid
 that truly differs is refused naming what differs, or resampled by nearest
 neighbour with --resample-labels and a warning. And overlay.png's view."""
 import json
+import os
 
 import numpy as np
 import pytest
 
-from conftest import MRI, need_mricron, run_cli
+from conftest import MRI, ROOT, need_mricron, run_cli
 
 
 def restored(path, out, perm, flips):
@@ -103,3 +104,37 @@ def test_overlay_view_is_recorded(tmp_path):
         run_cli("segment", f"{MRI}/ch2.nii.gz", "--sphere", "-20,14,-4,3", "--mesh-resolution", "8",
                 "--max-steps", "3", "--out", out, "-q", *args)
         assert report(out)["outputs"]["overlay_view"] == view
+
+
+ABDOMEN = os.path.normpath(os.path.join(ROOT, "..", "shared", "data", "abdomen_ct"))
+
+
+def test_a_dicom_ct_series_with_labels_stored_reversed_as_its_nifti(tmp_path):
+    """The issue's case: a CT as a DICOM series and its organ labels from
+    another tool with the second axis stored reversed. The same segmentation
+    as from the NIfTI CT and the labels as stored, label for label (the
+    protocol spheres too: the series' decimal spacings differ from the NIfTI's
+    in the 10th digit, which must not move a sphere's centre)."""
+    if not os.path.exists(os.path.join(ABDOMEN, "ct.nii.gz")):
+        pytest.skip(f"the abdominal CT is not at {ABDOMEN}")
+    import nibabel
+    import imagefiles as F
+    im = nibabel.load(os.path.join(ABDOMEN, "ct.nii.gz"))
+    F.write_dicom_series(str(tmp_path / "series"), np.asarray(im.dataobj).astype(np.int16), im.affine)
+    flipped = tmp_path / "labels_flipped.nii.gz"
+    restored(os.path.join(ABDOMEN, "labels.nii.gz"), flipped, [0, 1, 2], [1])
+    outs = {}
+    for name, volume, labels in (("nifti", os.path.join(ABDOMEN, "ct.nii.gz"), os.path.join(ABDOMEN, "labels.nii.gz")),
+                                 ("dicom", tmp_path / "series", flipped)):
+        out = tmp_path / name
+        run_cli("segment", volume, *[a for l in (5, 1, 2) for a in ("--sphere-from-label", f"{labels}:{l}")],
+                "--truth", labels, "--out", out, "-q")
+        outs[name] = out
+    a = np.asarray(nibabel.load(str(outs["nifti"] / "labels.nii.gz")).dataobj)
+    b = np.asarray(nibabel.load(str(outs["dicom"] / "labels.nii.gz")).dataobj)
+    assert np.array_equal(a, b) and set(np.unique(a)) == {0, 1, 2, 5}
+    ra, rb = report(outs["nifti"]), report(outs["dicom"])
+    for x, y in zip(ra["objects"], rb["objects"]):
+        assert x["sphere"]["label_voxel"] == y["sphere"]["label_voxel"]
+        assert x["metrics"]["dice"] == pytest.approx(y["metrics"]["dice"], abs=1e-12)
+    assert (outs["dicom"] / "segmentation.dcm").exists() and not (outs["nifti"] / "segmentation.dcm").exists()
