@@ -17,7 +17,6 @@
 #include <thread>
 
 #include "cli.h"
-#include "label_grid.h"
 #include "engine_volume.h"
 #include "ffseg.h"
 #include "mesh_io.h"
@@ -29,6 +28,7 @@
 #include "segment_outputs.h"
 #include "dicom_outputs.h"
 #include "dicom_study.h"
+#include "label_grid.h"
 #include "report_json.h"
 
 namespace ffseg_cli {
@@ -538,9 +538,10 @@ ffseg_tools::Json truth_metrics_json(const SegmentRequest& rq, const Inputs& in,
 
 // report.json: the request, the input, every object's sphere, mesh, volume
 // and metrics, the engine's configuration and the times.
-ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, const Inputs& in, const DicomWritten& dw, const EngineRun& run,
-                              const std::vector<ObjectResult>& res, const std::vector<std::string>& mesh_files,
-                              const double window[2], size_t shared_voxels, const Times& times) {
+ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, const Inputs& in,
+                              const DicomWritten& dw, const EngineRun& run, const std::vector<ObjectResult>& res,
+                              const std::vector<std::string>& mesh_files, const double window[2], size_t shared_voxels,
+                              const Times& times) {
   using ffseg_tools::Json;
   const uint32_t nobj = rq.objects();
   const ffseg_tools::NiftiImage& img = in.img;
@@ -680,7 +681,8 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
 }
 
 // The temporary directory becomes DIR (with --force the old DIR is set
-// aside first and deleted after), then the regions file takes its name.
+// aside first and deleted after), then each file beside it (SideFile) takes
+// its name.
 void move_into_place(const SegmentRequest& rq, TempDir* tmp, SideFiles* sides) {
   const std::string& out_dir = rq.out_dir;
   if (rq.out_nonempty) {
