@@ -123,13 +123,18 @@ def test_a_dicom_ct_series_with_labels_stored_reversed_as_its_nifti(tmp_path):
     F.write_dicom_series(str(tmp_path / "series"), np.asarray(im.dataobj).astype(np.int16), im.affine)
     flipped = tmp_path / "labels_flipped.nii.gz"
     restored(os.path.join(ABDOMEN, "labels.nii.gz"), flipped, [0, 1, 2], [1])
-    outs = {}
+    outs, codes = {}, set()
     for name, volume, labels in (("nifti", os.path.join(ABDOMEN, "ct.nii.gz"), os.path.join(ABDOMEN, "labels.nii.gz")),
                                  ("dicom", tmp_path / "series", flipped)):
         out = tmp_path / name
-        run_cli("segment", volume, *[a for l in (5, 1, 2) for a in ("--sphere-from-label", f"{labels}:{l}")],
-                "--truth", labels, "--out", out, "-q")
+        r = run_cli("segment", volume, *[a for l in (5, 1, 2) for a in ("--sphere-from-label", f"{labels}:{l}")],
+                    "--truth", labels, "--out", out, "-q", check=False)
+        # 6: an object stalled short of its boundary, the outputs written;
+        # whatever the engine makes of these organs, both inputs must agree.
+        assert r.returncode in (0, 6), r.stderr
+        codes.add(r.returncode)
         outs[name] = out
+    assert len(codes) == 1
     a = np.asarray(nibabel.load(str(outs["nifti"] / "labels.nii.gz")).dataobj)
     b = np.asarray(nibabel.load(str(outs["dicom"] / "labels.nii.gz")).dataobj)
     assert np.array_equal(a, b) and set(np.unique(a)) == {0, 1, 2, 5}
