@@ -20,6 +20,8 @@ DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev doctest-dev zlib1g-dev l
 # Python module, batch and image formats (issue 18): the tests run under /usr/bin/python3.
 DEB_PACKAGES += python3-numpy python3-pytest python3-distributed python3-nibabel python3-pydicom \
                 libgdcm-dev
+# DICOM Segmentation and RT Structure Set out through DCMTK, checked with dciodvfy (issue 31).
+DEB_PACKAGES += libdcmtk-dev dicom3tools
 # Rust and C# bindings, ABI check (issue 17): Debian's rustc 1.63 / cargo, Mono, libabigail.
 DEB_PACKAGES += rustc cargo mono-mcs mono-runtime abigail-tools
 

@@ -1,4 +1,4 @@
-// Tests for tools/nrrd, tools/metaimage and tools/image_io: the writers' output
+// Tests for tools/io/nrrd, tools/io/metaimage and tools/io/image_io: the writers' output
 // read back bit for bit (every voxel type, an oblique anisotropic affine), the
 // in-memory readers the fuzz target can call, and their refusals.
 #include <doctest/doctest.h>

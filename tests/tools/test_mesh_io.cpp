@@ -1,4 +1,4 @@
-// Tests for tools/mesh_io.{h,cpp}: every format written and read back.
+// Tests for tools/io/mesh_io.{h,cpp}: every format written and read back.
 #include <doctest/doctest.h>
 
 #include <cmath>

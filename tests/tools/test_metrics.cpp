@@ -1,4 +1,4 @@
-// Tests for tools/metrics.*: EDT against brute force, overlap and surface
+// Tests for tools/report/metrics.*: EDT against brute force, overlap and surface
 // distance metrics on masks with known answers.
 #include <doctest/doctest.h>
 

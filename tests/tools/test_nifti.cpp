@@ -1,4 +1,4 @@
-// Tests for tools/nifti.{h,cpp}: strict NIfTI-1 reader / writer.
+// Tests for tools/io/nifti.{h,cpp}: strict NIfTI-1 reader / writer.
 #include <doctest/doctest.h>
 
 #include "support/gzip_bytes.h"

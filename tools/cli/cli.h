@@ -62,8 +62,10 @@ std::string format_double(double v, int digits = 6);  // "%.*g"
 // ---- images -------------------------------------------------------------------
 // Reads a NIfTI-1, NRRD, MetaImage file or a DICOM series directory (in the
 // tools' RAS frame, image_io.h) or fails with kExitInput ("cannot read PATH:
-// reason"); *format (may be null) gets the format.
-ffseg_tools::NiftiImage read_image(const std::string& path, ffseg_tools::ImageFormat* format = nullptr);
+// reason"); *format (may be null) gets the format, *dicom (may be null) a
+// DICOM series' identifiers.
+ffseg_tools::NiftiImage read_image(const std::string& path, ffseg_tools::ImageFormat* format = nullptr,
+                                   ffseg_tools::DicomSource* dicom = nullptr);
 
 // The rescaled value (slope * stored + intercept) of voxel idx.
 double voxel_value(const ffseg_tools::NiftiImage& img, size_t idx);
@@ -101,8 +103,6 @@ void for_each_stored(const ffseg_tools::NiftiImage& img, F f) {
 // `label`; *count gets their number.
 std::vector<uint8_t> label_mask(const ffseg_tools::NiftiImage& img, int64_t label, size_t* count);
 
-// Same dims and index-to-world (to 1e-3 mm / 1e-5 relative)? If not, *why says how.
-bool same_grid(const ffseg_tools::NiftiImage& a, const ffseg_tools::NiftiImage& b, std::string* why);
 
 // Voxel volume in mm^3 (|det| of the affine's 3x3 part).
 double voxel_volume_mm3(const ffseg_tools::NiftiImage& img);

@@ -5,14 +5,16 @@
 #include <set>
 
 #include "cli.h"
+#include "label_grid.h"
 #include "report_json.h"
 
 namespace ffseg_cli {
 
 const char* const kEvalUsage =
-    "usage: ffseg eval PRED TRUTH [--labels a,b:c,...] [--json]\n"
+    "usage: ffseg eval PRED TRUTH [--labels a,b:c,...] [--json] [--resample-labels]\n"
     "\n"
-    "Compares two label maps on the same grid (same dimensions and affine) and\n"
+    "Compares two label maps on the same grid (the same voxel centres, within 0.01\n"
+    "voxel, stored in any axis order and direction: TRUTH is re-indexed exactly) and\n"
     "prints, per label, the voxel counts and volumes, Dice = 2|A n B|/(|A|+|B|),\n"
     "the volumetric overlap error VOE = 1 - |A n B|/|A u B|, the average\n"
     "symmetric surface distance ASSD and the 95th percentile Hausdorff distance\n"
@@ -23,6 +25,8 @@ const char* const kEvalUsage =
     "                  compares label a of PRED with label b of TRUTH\n"
     "                  (default: every non-zero label found in either map)\n"
     "  --json          print the results as JSON instead of a table\n"
+    "  --resample-labels  TRUTH on another grid is resampled onto PRED's by nearest\n"
+    "                  neighbour (a warning) instead of refused\n"
     "  -h, --help      this text\n";
 
 namespace {
@@ -61,7 +65,7 @@ int cmd_eval(int argc, char** argv) {
   Args args(argc, argv, 2);
   std::string tok, labels_opt;
   std::vector<std::string> files;
-  bool opt, json = false, have_labels = false;
+  bool opt, json = false, have_labels = false, resample = false;
   while (args.next(&tok, &opt)) {
     if (!opt) {
       files.push_back(tok);
@@ -71,6 +75,8 @@ int cmd_eval(int argc, char** argv) {
     } else if (tok == "--labels") {
       labels_opt = args.value(tok);
       have_labels = true;
+    } else if (tok == "--resample-labels") {
+      resample = true;
     } else if (tok == "--json") {
       json = true;
     } else {
@@ -91,10 +97,7 @@ int cmd_eval(int argc, char** argv) {
   }
 
   const ffseg_tools::NiftiImage pred = read_image(files[0]);
-  const ffseg_tools::NiftiImage truth = read_image(files[1]);
-  std::string why;
-  if (!same_grid(pred, truth, &why))
-    fail(kExitInput, "grids differ: " + why + " between " + files[0] + " and " + files[1]);
+  const ffseg_tools::NiftiImage truth = read_on_grid(pred, files[0], files[1], "TRUTH", resample, false);
   if (!have_labels) {
     std::set<int64_t> all = labels_in(pred, files[0]);
     for (int64_t l : labels_in(truth, files[1])) all.insert(l);

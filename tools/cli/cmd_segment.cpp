@@ -26,6 +26,9 @@
 #include "mesh_resolution.h"
 #include "seed_check.h"
 #include "segment_outputs.h"
+#include "dicom_outputs.h"
+#include "dicom_study.h"
+#include "label_grid.h"
 #include "report_json.h"
 
 namespace ffseg_cli {
@@ -60,6 +63,22 @@ struct TempFile {
     if (!path.empty() && !keep) std::remove(path.c_str());
   }
 };
+
+// An output outside DIR (--regions, --dicom-seg, --rtstruct): written to a
+// temporary name beside it, renamed after DIR.
+struct SideFile {
+  std::string dest;
+  TempFile tmp;
+};
+using SideFiles = std::vector<std::unique_ptr<SideFile>>;
+
+std::string add_side_file(SideFiles* sides, const std::string& dest) {
+  sides->push_back(std::make_unique<SideFile>());
+  SideFile& f = *sides->back();
+  f.dest = dest;
+  f.tmp.path = parent_dir(dest) + "/.ffseg-tmp-" + std::to_string(::getpid()) + "-" + base_name(dest);
+  return f.tmp.path;
+}
 
 // A temporary output directory removed on scope exit unless committed.
 struct TempDir {
@@ -144,21 +163,31 @@ struct Inputs {
   ffseg_tools::NiftiImage truth;
   std::vector<std::vector<uint8_t>> truth_masks;
   size_t nonfinite_voxels = 0;
+  ffseg_tools::DicomSource dicom;  // the series' identifiers, or a generated study
+};
+
+// The DICOM objects written, for the report.
+struct DicomWritten {
+  std::string seg, rtstruct;
+  size_t contours = 0;
 };
 
 // Reads the volume and --truth, fills in the --sphere-from-label spheres and
 // counts the non-finite voxels (a warning, also with --quiet).
 void read_inputs(SegmentRequest* rq, Inputs* in) {
-  in->img = read_image(rq->volume_path, &in->format);
+  in->img = read_image(rq->volume_path, &in->format, &in->dicom);
+  if (in->format != ffseg_tools::ImageFormat::Dicom) {
+    in->dicom = ffseg_tools::dicom_generated_source(rq->volume_path);
+  } else if (in->dicom.frame_of_reference_uid.empty()) {
+    in->dicom.frame_of_reference_uid = ffseg_tools::dicom_new_uid();
+    in->dicom.note = "made from a series without FrameOfReferenceUID (0020,0052): they carry a new frame of reference";
+  }
   const ffseg_tools::NiftiImage& img = in->img;
   in->labels_format = rq->labels_format;
   if (!rq->have_labels_format && in->format != ffseg_tools::ImageFormat::Dicom) in->labels_format = in->format;
   in->labels_file = ffseg_tools::label_file_name(in->labels_format);
   if (!rq->truth_path.empty()) {
-    in->truth = read_image(rq->truth_path);
-    std::string why;
-    if (!same_grid(img, in->truth, &why))
-      fail(kExitInput, "grids differ: " + why + " between " + rq->volume_path + " and --truth " + rq->truth_path);
+    in->truth = read_on_grid(img, rq->volume_path, rq->truth_path, "--truth", rq->resample_labels, rq->quiet);
     for (uint32_t k = 0; k < rq->objects(); ++k) {
       size_t count = 0;
       in->truth_masks.push_back(label_mask(in->truth, rq->labels[k], &count));
@@ -169,7 +198,7 @@ void read_inputs(SegmentRequest* rq, Inputs* in) {
   {
     std::map<std::string, const ffseg_tools::NiftiImage*> known;
     if (!rq->truth_path.empty()) known[rq->truth_path] = &in->truth;
-    resolve_label_spheres(&rq->spheres, img, rq->volume_path, known, rq->quiet);
+    resolve_label_spheres(&rq->spheres, img, rq->volume_path, known, rq->resample_labels, rq->quiet);
   }
   // Non-finite grey levels (float volumes): the engine leaves them out of the
   // intensity model and its crop reads them as a background value, so they
@@ -509,9 +538,10 @@ ffseg_tools::Json truth_metrics_json(const SegmentRequest& rq, const Inputs& in,
 
 // report.json: the request, the input, every object's sphere, mesh, volume
 // and metrics, the engine's configuration and the times.
-ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, const Inputs& in, const EngineRun& run,
-                              const std::vector<ObjectResult>& res, const std::vector<std::string>& mesh_files,
-                              const double window[2], size_t shared_voxels, const Times& times) {
+ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, const Inputs& in,
+                              const DicomWritten& dw, const EngineRun& run, const std::vector<ObjectResult>& res,
+                              const std::vector<std::string>& mesh_files, const double window[2], size_t shared_voxels,
+                              const Times& times) {
   using ffseg_tools::Json;
   const uint32_t nobj = rq.objects();
   const ffseg_tools::NiftiImage& img = in.img;
@@ -635,14 +665,25 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
   outs.set("overlay", "overlay.png");
   outs.set("overlay_window", Json::array_of(window, 2));
   outs.set("overlay_window_source", rq.have_window ? "--window" : "objects");
+  outs.set("overlay_view", ffseg_tools::overlay_view_name(rq.view));
+  if (!dw.seg.empty()) outs.set("dicom_seg", dw.seg);
+  if (!dw.rtstruct.empty()) {
+    outs.set("rtstruct", dw.rtstruct);
+    outs.set("rtstruct_contours", uint64_t(dw.contours));
+  }
+  if (!dw.seg.empty() || !dw.rtstruct.empty()) {
+    outs.set("dicom_references", in.dicom.generated() ? "generated study" : "source series");
+    if (!in.dicom.note.empty()) outs.set("dicom_note", in.dicom.note);
+  }
   if (!rq.regions_path.empty()) outs.set("regions", rq.regions_path);
   rep.set("outputs", std::move(outs));
   return rep;
 }
 
 // The temporary directory becomes DIR (with --force the old DIR is set
-// aside first and deleted after), then the regions file takes its name.
-void move_into_place(const SegmentRequest& rq, TempDir* tmp, TempFile* regions_tmp) {
+// aside first and deleted after), then each file beside it (SideFile) takes
+// its name.
+void move_into_place(const SegmentRequest& rq, TempDir* tmp, SideFiles* sides) {
   const std::string& out_dir = rq.out_dir;
   if (rq.out_nonempty) {
     const std::string aside = rq.out_parent + "/." + base_name(out_dir) + ".ffseg-old-" + std::to_string(::getpid());
@@ -662,10 +703,10 @@ void move_into_place(const SegmentRequest& rq, TempDir* tmp, TempFile* regions_t
       fail(kExitFailure, "cannot rename the results to " + out_dir + ": " + std::strerror(errno));
     tmp->keep = true;
   }
-  if (!rq.regions_path.empty()) {
-    if (std::rename(regions_tmp->path.c_str(), rq.regions_path.c_str()) != 0)
-      fail(kExitFailure, "cannot rename the bounding regions to " + rq.regions_path + ": " + std::strerror(errno));
-    regions_tmp->keep = true;
+  for (const auto& f : *sides) {
+    if (std::rename(f->tmp.path.c_str(), f->dest.c_str()) != 0)
+      fail(kExitFailure, "cannot rename " + f->tmp.path + " to " + f->dest + ": " + std::strerror(errno));
+    f->tmp.keep = true;
   }
 }
 
@@ -866,28 +907,42 @@ int cmd_segment(int argc, char** argv) {
 
   double window[2] = {rq.window[0], rq.window[1]};
   if (!rq.have_window) object_window(img, res, &window[0], &window[1]);
-  if (!write_overlay(tmp.path + "/overlay.png", img, res, rq.names, in.truth_masks, window[0], window[1], &err))
+  if (!write_overlay(tmp.path + "/overlay.png", img, res, rq.names, in.truth_masks, window[0], window[1], rq.view, &err))
     fail(kExitFailure, err);
   check_interrupted();
 
-  ffseg_tools::Json rep = make_report(argc, argv, rq, in, run, res, mesh_files, window, shared_voxels, times);
+  // Beside DIR, renamed into place after it: the bounding regions and the
+  // DICOM objects asked for by name.
+  SideFiles sides;
+  if (!rq.regions_path.empty() &&
+      !ffseg_tools::image_write_file(add_side_file(&sides, rq.regions_path),
+                                     ffseg_tools::image_format_of_path(rq.regions_path), regions_map, &err))
+    fail(kExitFailure, err);
+  DicomWritten dicom_written;
+  if (!rq.dicom_seg_path.empty() || in.format == ffseg_tools::ImageFormat::Dicom) {
+    const bool inside = rq.dicom_seg_path.empty();
+    dicom_written.seg = inside ? kAutoSegFile : rq.dicom_seg_path;
+    write_dicom_seg(inside ? tmp.path + "/" + kAutoSegFile : add_side_file(&sides, rq.dicom_seg_path), img, res,
+                    rq.names, rq.labels, in.dicom);
+    check_interrupted();
+  }
+  if (!rq.rtstruct_path.empty()) {
+    dicom_written.rtstruct = rq.rtstruct_path;
+    write_rtstruct(add_side_file(&sides, rq.rtstruct_path), img, res, rq.names, rq.labels, in.dicom,
+                   &dicom_written.contours);
+    check_interrupted();
+  }
+  if ((!dicom_written.seg.empty() || !dicom_written.rtstruct.empty()) && !in.dicom.note.empty() && !rq.quiet)
+    std::fprintf(stderr, "ffseg: note: the DICOM objects are %s\n", in.dicom.note.c_str());
+
+  ffseg_tools::Json rep = make_report(argc, argv, rq, in, dicom_written, run, res, mesh_files, window, shared_voxels, times);
   if (rq.seed_check) rep.set("seed_check", seed_check_json(seeds, rq.names));
   if (rq.consensus) rep.set("consensus", consensus_json(rq, in, seeds, consensus, consensus_file));
   if (!write_text_file(tmp.path + "/report.json", rep.dump(), &err)) fail(kExitFailure, err);
   check_interrupted();
 
-  // The bounding regions beside it (renamed into place after DIR).
-  TempFile regions_tmp;
-  if (!rq.regions_path.empty()) {
-    regions_tmp.path = parent_dir(rq.regions_path) + "/.ffseg-tmp-" + std::to_string(::getpid()) + "-" +
-                       base_name(rq.regions_path);
-    if (!ffseg_tools::image_write_file(regions_tmp.path, ffseg_tools::image_format_of_path(rq.regions_path),
-                                       regions_map, &err))
-      fail(kExitFailure, err);
-  }
   check_interrupted();
-
-  move_into_place(rq, &tmp, &regions_tmp);
+  move_into_place(rq, &tmp, &sides);
   print_summary(rq, run, res, rep, shared_voxels);
   return warn_stalls(rq, run) ? kExitStalled : kExitOk;
 }

@@ -98,10 +98,10 @@ std::string format_double(double v, int digits) {
 }
 
 // ---- images -------------------------------------------------------------------
-NiftiImage read_image(const std::string& path, ffseg_tools::ImageFormat* format) {
+NiftiImage read_image(const std::string& path, ffseg_tools::ImageFormat* format, ffseg_tools::DicomSource* dicom) {
   NiftiImage img;
   std::string err;
-  if (ffseg_tools::image_read_file(path, &img, format, &err)) return img;
+  if (ffseg_tools::image_read_file(path, &img, format, &err, {}, dicom)) return img;
   fail(kExitInput, "cannot read " + path + ": " + err);
 }
 
@@ -133,28 +133,6 @@ std::vector<uint8_t> label_mask(const NiftiImage& img, int64_t label, size_t* co
   });
   if (count) *count = n;
   return m;
-}
-
-bool same_grid(const NiftiImage& a, const NiftiImage& b, std::string* why) {
-  for (int k = 0; k < 3; ++k)
-    if (a.dims[k] != b.dims[k]) {
-      *why = "dimensions differ (" + std::to_string(a.dims[0]) + "x" + std::to_string(a.dims[1]) + "x" +
-             std::to_string(a.dims[2]) + " vs " + std::to_string(b.dims[0]) + "x" +
-             std::to_string(b.dims[1]) + "x" + std::to_string(b.dims[2]) + ")";
-      return false;
-    }
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) {
-      const double x = a.index_to_world[4 * r + c], y = b.index_to_world[4 * r + c];
-      const double tol = c == 3 ? 1e-3 : 1e-5 * std::max(1.0, std::max(std::fabs(x), std::fabs(y)));
-      if (!(std::fabs(x - y) <= tol)) {
-        *why = "index-to-world affines differ (" + a.which_affine + " vs " + b.which_affine +
-               ", row " + std::to_string(r) + " column " + std::to_string(c) + ": " +
-               format_double(x) + " vs " + format_double(y) + ")";
-        return false;
-      }
-    }
-  return true;
 }
 
 double voxel_volume_mm3(const NiftiImage& img) {

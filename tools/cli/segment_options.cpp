@@ -1,6 +1,7 @@
 // `ffseg segment`'s command line (segment_options.h).
 #include "segment_options.h"
 
+
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
@@ -8,6 +9,7 @@
 #include <memory>
 
 #include "cli.h"
+#include "label_grid.h"
 #include "metrics.h"
 #include "param_args.h"
 
@@ -108,25 +110,22 @@ SphereArg parse_sphere_from_label(const std::string& opt, const std::string& v) 
 // The evaluation-protocol sphere (PEERS.md) of every --sphere-from-label object:
 // centre = the label voxel farthest from the label's border (Euclidean distance
 // in mm; beyond the grid counts as outside), radius = half that distance, the
-// centre taken to world mm with the label map's own affine. Each label map is
-// read once; `known` holds maps already in memory (the --truth map), by path.
+// centre taken to world mm with the map's affine. Each label map is read once,
+// onto the volume's grid (label_grid.h) or, with the same dimensions, on its
+// own affine; `known` holds maps already read (the --truth map), by path.
 void resolve_label_spheres(std::vector<SphereArg>* spheres, const ffseg_tools::NiftiImage& img,
                            const std::string& volume_path,
-                           std::map<std::string, const ffseg_tools::NiftiImage*> known, bool quiet) {
+                           std::map<std::string, const ffseg_tools::NiftiImage*> known, bool resample,
+                           bool quiet) {
   std::vector<std::unique_ptr<ffseg_tools::NiftiImage>> owned;
   for (SphereArg& s : *spheres) {
     if (s.label_path.empty()) continue;
     const ffseg_tools::NiftiImage*& lm = known[s.label_path];
     if (!lm) {
-      owned.push_back(std::make_unique<ffseg_tools::NiftiImage>(read_image(s.label_path)));
+      owned.push_back(std::make_unique<ffseg_tools::NiftiImage>(
+          read_on_grid(img, volume_path, s.label_path, "--sphere-from-label", resample, quiet, true)));
       lm = owned.back().get();
     }
-    if (lm->dims[0] != img.dims[0] || lm->dims[1] != img.dims[1] || lm->dims[2] != img.dims[2])
-      fail(kExitInput, "grids differ: dimensions differ (" + std::to_string(img.dims[0]) + "x" +
-                           std::to_string(img.dims[1]) + "x" + std::to_string(img.dims[2]) + " vs " +
-                           std::to_string(lm->dims[0]) + "x" + std::to_string(lm->dims[1]) + "x" +
-                           std::to_string(lm->dims[2]) + ") between " + volume_path +
-                           " and --sphere-from-label " + s.label_path);
     size_t count = 0;
     const std::vector<uint8_t> mask = label_mask(*lm, s.label, &count);
     if (count == 0 || !ffseg_tools::find_deepest_voxel(mask.data(), lm->dims, lm->spacing, &s.label_ijk, &s.depth_mm))
@@ -185,8 +184,11 @@ const char* const kSegmentUsageText =
     "                  labels.nrrd / labels.mha for NRRD / MetaImage input\n"
     "  overlay.png     axial, coronal and sagittal slices through each object's\n"
     "                  centre with every object's contour in its own colour\n"
+    "                  (radiological order: the patient's right on the left; --view)\n"
     "                  (with --truth: the reference label as a dashed yellow contour,\n"
     "                  a colour no object gets)\n"
+    "  segmentation.dcm  for a DICOM series as VOLUME: a DICOM Segmentation of the\n"
+    "                  label map referencing the series (--dicom-seg)\n"
     "  report.json     input, steps, convergence, volume (ml), mesh size, metrics,\n"
     "                  time per stage (regions: the bounding regions of several\n"
     "                  objects), border vertices and shared voxels per object,\n"
@@ -204,7 +206,8 @@ const char* const kSegmentUsageText =
     "  --sphere-voxel I,J,K,R  centre in voxel indices (may be fractional), radius in mm\n"
     "  --sphere-from-label LABELS:L\n"
     "                          the evaluation-protocol sphere of label L of the label\n"
-    "                          map LABELS (same dims as VOLUME): centre = the label's\n"
+    "                          map LABELS (VOLUME's voxel centres in any storage order, see\n"
+    "                          --truth, or VOLUME's dims on any affine): centre = the label's\n"
     "                          voxel farthest from its border (Euclidean, mm), in world\n"
     "                          mm by LABELS' affine; radius = half that distance.\n"
     "                          Printed on stderr; report.json gives sphere_source.\n"
@@ -220,6 +223,16 @@ const char* const kSegmentUsageText =
     "  --regions FILE          also write the bounding regions of two or more objects\n"
     "                          as a label map (the labels of labels.nii.gz; format by\n"
     "                          the name: .nii.gz, .nii, .nrrd, .mha)\n"
+    "  --dicom-seg FILE        also write a DICOM Segmentation (FILE.dcm): one segment per\n"
+    "                          object (name, label, colour), frames on VOLUME's grid; a DICOM\n"
+    "                          series as VOLUME writes DIR/segmentation.dcm without it\n"
+    "  --rtstruct FILE         also write an RT Structure Set (FILE.dcm): one ROI per object,\n"
+    "                          its contours the mesh cut by each slice plane (sub-voxel\n"
+    "                          closed polygons, LPS mm). Both reference VOLUME's series and\n"
+    "                          images when it is DICOM; other input: a generated study,\n"
+    "                          no image referenced (a note says so)\n"
+    "  --view MODE             overlay.png's axial and coronal panels: radiological (default:\n"
+    "                          the patient's right on the image's left) or neurological\n"
     "  -q, --quiet             no progress line (nor the --sphere-from-label lines)\n"
     "\n"
     "algorithm:\n"
@@ -241,7 +254,11 @@ const char* const kSegmentUsageText =
     "                          count, at most 2^26)\n"
     "\n"
     "evaluation:\n"
-    "  --truth LABELS          reference label map on the same grid\n"
+    "  --truth LABELS          reference label map on VOLUME's grid: the same voxel centres\n"
+    "                          (within 0.01 voxel), stored in any axis order and direction\n"
+    "                          (re-indexed exactly); another grid is refused unless\n"
+    "  --resample-labels       LABELS and --sphere-from-label maps on another grid are\n"
+    "                          resampled onto VOLUME's by nearest neighbour (a warning)\n"
     "  --truth-labels a,b,...  its label for each object (default: the labels of\n"
     "                          labels.nii.gz, see above); adds\n"
     "                          Dice, VOE, ASSD and HD95 (mm) per object to the report\n"    "  --seed-check            segment again from five perturbed spheres (every radius x0.6\n"
@@ -323,6 +340,17 @@ void check_regions_path(const std::string& path, uint32_t nobj, bool force) {
     fail(kExitUsage, "--regions " + path + ": the file name must end in .nii.gz, .nii, .nrrd or .mha");
   if (!is_directory(parent_dir(path)))
     fail(kExitUsage, "--regions: the parent directory " + parent_dir(path) + " does not exist");
+}
+
+// --dicom-seg / --rtstruct FILE: a new file (or --force) in an existing
+// directory, named *.dcm.
+void check_side_path(const std::string& opt, const std::string& path, const char* ext, bool force) {
+  if (path.empty()) return;
+  if (is_directory(path)) fail(kExitUsage, opt + " " + path + " is a directory");
+  if (path_exists(path) && !force) fail(kExitUsage, opt + " " + path + " exists (use --force to replace it)");
+  if (!ends_with(path, ext)) fail(kExitUsage, opt + " " + path + ": the file name must end in " + ext);
+  if (!is_directory(parent_dir(path)))
+    fail(kExitUsage, opt + ": the parent directory " + parent_dir(path) + " does not exist");
 }
 
 // --out DIR: refused early, before any work, unless it can take the results.
@@ -411,6 +439,16 @@ SegmentRequest parse_segment_request(int argc, char** argv) {
     } else if (tok == "--regions") {
       rq.regions_path = args.value(tok);
       if (rq.regions_path.empty()) fail(kExitUsage, "--regions: empty path");
+    } else if (tok == "--dicom-seg") {
+      rq.dicom_seg_path = args.value(tok);
+    } else if (tok == "--rtstruct") {
+      rq.rtstruct_path = args.value(tok);
+    } else if (tok == "--view") {
+      const std::string v = args.value(tok);
+      if (!ffseg_tools::overlay_view_from_name(v, &rq.view))
+        fail(kExitUsage, "--view: expected radiological or neurological, got '" + v + "'");
+    } else if (tok == "--resample-labels") {
+      rq.resample_labels = true;
     } else if (tok == "--truth") {
       rq.truth_path = args.value(tok);
     } else if (tok == "--truth-labels") {
@@ -439,6 +477,12 @@ SegmentRequest parse_segment_request(int argc, char** argv) {
     rq.labels = default_labels(rq.spheres);
   }
   if (!rq.regions_path.empty()) check_regions_path(rq.regions_path, nobj, rq.force);
+  check_side_path("--dicom-seg", rq.dicom_seg_path, ".dcm", rq.force);
+  check_side_path("--rtstruct", rq.rtstruct_path, ".dcm", rq.force);
+  const std::string side[3] = {rq.regions_path, rq.dicom_seg_path, rq.rtstruct_path};
+  for (int a = 0; a < 3; ++a)
+    for (int b = a + 1; b < 3; ++b)
+      if (!side[a].empty() && side[a] == side[b]) fail(kExitUsage, "two outputs are both written to " + side[a]);
   check_out_dir(&rq);
   return rq;
 }

@@ -13,6 +13,7 @@
 #include "image_io.h"
 #include "mesh_io.h"
 #include "nifti.h"
+#include "overlay.h"
 #include "report_json.h"
 
 namespace ffseg_cli {
@@ -51,7 +52,8 @@ SphereArg parse_sphere_from_label(const std::string& opt, const std::string& v);
 // Fills in the protocol sphere of every --sphere-from-label object (see the .cpp).
 void resolve_label_spheres(std::vector<SphereArg>* spheres, const ffseg_tools::NiftiImage& img,
                            const std::string& volume_path,
-                           std::map<std::string, const ffseg_tools::NiftiImage*> known, bool quiet);
+                           std::map<std::string, const ffseg_tools::NiftiImage*> known, bool resample,
+                           bool quiet);
 // The label of each object in labels.nii.gz when --truth-labels is not
 // given: its --sphere-from-label label, else its index + 1, or the next
 // number that no other object has; fail(kExitUsage) when two objects come
@@ -66,6 +68,9 @@ bool valid_name(const std::string& n);
 struct SegmentRequest {
   bool help = false;  // -h / --help: the usage was printed, nothing else to do
   std::string volume_path, out_dir, truth_path, regions_path;
+  std::string dicom_seg_path;      // --dicom-seg FILE (a DICOM input writes DIR/segmentation.dcm without it)
+  std::string rtstruct_path;       // --rtstruct FILE
+  ffseg_tools::OverlayView view = ffseg_tools::OverlayView::Radiological;  // --view
   std::vector<SphereArg> spheres;
   std::vector<std::string> names;  // one per object
   std::vector<int64_t> labels;     // one per object: its label in labels.nii.gz (and in --truth)
@@ -79,6 +84,7 @@ struct SegmentRequest {
   bool have_labels_format = false;
   ffseg_tools::ImageFormat labels_format = ffseg_tools::ImageFormat::Nifti;
   bool force = false, quiet = false;
+  bool resample_labels = false;    // --resample-labels (label_grid.h)
   bool seed_check = false;         // --seed-check (seed_check.h)
   bool consensus = false;          // --consensus (seed_check.h; implies seed_check)
   uint32_t jobs = 0;               // --jobs: the seed check's runs at once; 0: the CPU count

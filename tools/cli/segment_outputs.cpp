@@ -131,7 +131,7 @@ void object_window(const ffseg_tools::NiftiImage& img, const std::vector<ObjectR
 
 bool write_overlay(const std::string& path, const ffseg_tools::NiftiImage& img, const std::vector<ObjectResult>& res,
                    const std::vector<std::string>& names, const std::vector<std::vector<uint8_t>>& truth_masks,
-                   double lo, double hi, std::string* err) {
+                   double lo, double hi, ffseg_tools::OverlayView view, std::string* err) {
   ffseg_tools::OverlayVolume ov;
   ov.value = [&img](size_t i) { return voxel_value(img, i); };
   for (int a = 0; a < 3; ++a) {
@@ -141,6 +141,7 @@ bool write_overlay(const std::string& path, const ffseg_tools::NiftiImage& img, 
   std::memcpy(ov.index_to_world, img.index_to_world, sizeof ov.index_to_world);
   ov.window_lo = lo;
   ov.window_hi = hi;
+  ov.view = view;
   std::vector<ffseg_tools::OverlayObject> oo(res.size());
   for (size_t k = 0; k < res.size(); ++k) {
     oo[k].name = names[k];

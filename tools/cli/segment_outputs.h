@@ -11,6 +11,7 @@
 
 #include "ffseg.h"
 #include "nifti.h"
+#include "overlay.h"
 
 namespace ffseg_cli {
 
@@ -61,7 +62,7 @@ void object_window(const ffseg_tools::NiftiImage& img, const std::vector<ObjectR
 // (empty, or one per object) as the reference contours; grey window [lo, hi].
 bool write_overlay(const std::string& path, const ffseg_tools::NiftiImage& img, const std::vector<ObjectResult>& res,
                    const std::vector<std::string>& names, const std::vector<std::vector<uint8_t>>& truth_masks,
-                   double lo, double hi, std::string* err);
+                   double lo, double hi, ffseg_tools::OverlayView view, std::string* err);
 
 }  // namespace ffseg_cli
 

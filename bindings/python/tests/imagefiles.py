@@ -96,7 +96,7 @@ def write_mhd(path, vol, affine):
 
 
 def write_dicom_series(directory, vol, affine, slope=1.0, intercept=0.0, stored=None, order=None,
-                       slice_thickness=7.5, series_uid=None):
+                       slice_thickness=7.5, series_uid=None, with_frame_of_reference=True):
     """One single-frame MR slice per k, in LPS; file names in `order` (a
     permutation of the slices) so that name order is not position order."""
     import pydicom
@@ -108,7 +108,7 @@ def write_dicom_series(directory, vol, affine, slope=1.0, intercept=0.0, stored=
     row_dir, col_dir = M[:, 0] / sp[0], M[:, 1] / sp[1]
     stored = vol if stored is None else stored
     series_uid = series_uid or generate_uid()
-    study = generate_uid()
+    study, frame_of_reference = generate_uid(), generate_uid()
     nk = vol.shape[2]
     order = list(range(nk)) if order is None else order
     for n, k in enumerate(order):
@@ -121,6 +121,8 @@ def write_dicom_series(directory, vol, affine, slope=1.0, intercept=0.0, stored=
         d.SOPClassUID = meta.MediaStorageSOPClassUID
         d.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
         d.StudyInstanceUID, d.SeriesInstanceUID = study, series_uid
+        if with_frame_of_reference:
+            d.FrameOfReferenceUID = frame_of_reference
         d.Modality, d.PatientName, d.PatientID = "MR", "Test^Phantom", "ffseg-test"
         d.InstanceNumber = n + 1
         d.ImagePositionPatient = [ds(v) for v in o + M[:, 2] * k]

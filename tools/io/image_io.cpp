@@ -7,7 +7,7 @@
 #include <cstring>
 
 #include "byte_io.h"
-#include "dicom.h"
+#include "dicom_series.h"
 #include "metaimage.h"
 #include "nrrd.h"
 
@@ -51,14 +51,14 @@ ImageFormat image_format_of_path(const std::string& path) {
 }
 
 bool image_read_file(const std::string& path, NiftiImage* out, ImageFormat* format, std::string* err,
-                     const NiftiLimits& lim) {
+                     const NiftiLimits& lim, DicomSource* dicom) {
     const ImageFormat f = image_format_of_path(path);
     if (format) *format = f;
     switch (f) {
         case ImageFormat::Nifti: return nifti_read_file(path, out, err, lim);
         case ImageFormat::Nrrd: return nrrd_read_file(path, out, err, lim);
         case ImageFormat::MetaImage: return metaimage_read_file(path, out, err, lim);
-        case ImageFormat::Dicom: return dicom_read_series(path, out, err, lim);
+        case ImageFormat::Dicom: return dicom_read_series(path, out, err, lim, dicom);
     }
     return io::fail(err, "unknown format");
 }

@@ -202,17 +202,24 @@ bool find_deepest_voxel(const uint8_t* mask, const int dims[3], const double spa
         buf[p] = obj ? kInf : 0.0;
       }
   edt_inplace(buf, bd, spacing);
-  // Box order is grid order restricted to the box, so the first strict maximum
-  // is the one with the lowest linear index.
+  // Depths equal but for rounding (spacings read back from a DICOM series'
+  // decimal strings differ from the NIfTI's in the 10th digit) count as a
+  // tie, so the protocol sphere does not depend on the file's format. Box
+  // order is grid order restricted to the box, so the first voxel within the
+  // tie of the maximum is the one with the lowest linear index.
+  double top = 0;
+  for (std::size_t q = 0; q < nbox; ++q) top = std::max(top, buf[q]);
+  const double tie = top * (1 - 1e-9);
   double best = -1.0;
   int bi = 0, bj = 0, bk = 0;
   p = 0;
-  for (int k = lo[2]; k <= hi[2]; ++k)
-    for (int j = lo[1]; j <= hi[1]; ++j)
+  for (int k = lo[2]; k <= hi[2] && best < 0; ++k)
+    for (int j = lo[1]; j <= hi[1] && best < 0; ++j)
       for (int i = lo[0]; i <= hi[0]; ++i, ++p)
-        if (buf[p] > best) {  // background voxels have 0 and never win over an object voxel
+        if (buf[p] > 0 && buf[p] >= tie) {  // background voxels have 0
           best = buf[p];
           bi = i; bj = j; bk = k;
+          break;
         }
   if (ijk) *ijk = {bi, bj, bk};
   if (dist_mm) *dist_mm = std::sqrt(best);

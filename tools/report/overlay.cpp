@@ -79,9 +79,17 @@ struct ViewSpec {
   const char *left, *right, *top, *bottom;
 };
 
-const ViewSpec kViews[3] = {
+// Neurological order: the patient's left on the screen's left.
+const ViewSpec kNeurologicalViews[3] = {
     {"axial", 2, 0, 1, +1, -1, "L", "R", "A", "P"},
     {"coronal", 1, 0, 2, +1, -1, "L", "R", "S", "I"},
+    {"sagittal", 0, 1, 2, -1, -1, "A", "P", "S", "I"},
+};
+// Radiological order: the patient's right on the screen's left, as if facing
+// the patient (CT and most radiology viewers).
+const ViewSpec kRadiologicalViews[3] = {
+    {"axial", 2, 0, 1, -1, -1, "R", "L", "A", "P"},
+    {"coronal", 1, 0, 2, -1, -1, "R", "L", "S", "I"},
     {"sagittal", 0, 1, 2, -1, -1, "A", "P", "S", "I"},
 };
 const char* kWorldName[3] = {"x", "y", "z"};
@@ -135,6 +143,17 @@ std::string fmt(const char* f, double v) {
 }
 
 }  // namespace
+
+const char* overlay_view_name(OverlayView v) {
+  return v == OverlayView::Neurological ? "neurological" : "radiological";
+}
+
+bool overlay_view_from_name(const std::string& name, OverlayView* v) {
+  if (name == "radiological") *v = OverlayView::Radiological;
+  else if (name == "neurological") *v = OverlayView::Neurological;
+  else return false;
+  return true;
+}
 
 void overlay_palette(size_t k, uint8_t rgb[3]) {
   static const uint8_t pal[12][3] = {
@@ -192,6 +211,7 @@ bool overlay_render(const OverlayVolume& vol, const std::vector<OverlayObject>& 
       return false;
     }
   const Orientation ori = orientation_of(vol.index_to_world);
+  const ViewSpec* kViews = vol.view == OverlayView::Neurological ? kNeurologicalViews : kRadiologicalViews;
 
   // Square pixels of pix_mm, enlarged for small grids, reduced for huge ones.
   double base = std::min({vol.spacing[0], vol.spacing[1], vol.spacing[2]});

@@ -1,5 +1,5 @@
-// ffseg tools: DICOM series through GDCM (see dicom.h).
-#include "dicom.h"
+// ffseg tools: DICOM series through GDCM (see dicom_series.h).
+#include "dicom_series.h"
 
 #include <dirent.h>
 #include <sys/stat.h>
@@ -32,7 +32,7 @@ struct Slice {
     double position = 0;  // along the normal
     unsigned cols = 0, rows = 0;
     const img::ScalarType* type = nullptr;
-    std::string series;
+    std::string series, sop_instance, sop_class, study, frame_of_reference;
     std::vector<uint8_t> pixels;  // as stored, native order
 };
 
@@ -92,6 +92,10 @@ bool read_slice(const std::string& path, Slice* s, std::string* err) {
     if (!slope.empty() && (!ds_numbers(slope, 1, &s->slope) || s->slope == 0)) return field("RescaleSlope", "(0028,1053)");
     if (!icpt.empty() && !ds_numbers(icpt, 1, &s->intercept)) return field("RescaleIntercept", "(0028,1052)");
     s->series = tag_string(f, 0x0020, 0x000e);
+    s->sop_class = tag_string(f, 0x0008, 0x0016);
+    s->sop_instance = tag_string(f, 0x0008, 0x0018);
+    s->study = tag_string(f, 0x0020, 0x000d);
+    s->frame_of_reference = tag_string(f, 0x0020, 0x0052);
     if (im.GetNumberOfDimensions() == 3 && im.GetDimensions()[2] > 1)
         return fail(err, fmt("a multi-frame image (%u frames): only one frame per file is supported",
                              im.GetDimensions()[2]));
@@ -120,7 +124,25 @@ void rescale_into(const uint8_t* in, size_t n, double slope, double icpt, double
     }
 }
 
-bool read_series(const std::string& dir, NiftiImage* out, std::string* err, const NiftiLimits& lim) {
+// The identifiers a written object refers to, slice by slice.
+bool take_source(const std::vector<Slice>& s, DicomSource* src, std::string* err) {
+    for (const Slice& x : s) {
+        const auto missing = [&](const char* what) { return fail(err, x.file + ": " + what + " is missing (needed to refer to the series)"); };
+        if (x.sop_instance.empty()) return missing("SOPInstanceUID (0008,0018)");
+        if (x.study.empty()) return missing("StudyInstanceUID (0020,000D)");
+        if (x.study != s[0].study || x.frame_of_reference != s[0].frame_of_reference || x.sop_class != s[0].sop_class)
+            return fail(err, x.file + ": StudyInstanceUID, FrameOfReferenceUID or SOPClassUID differs from " + s[0].file + "'s");
+        src->files.push_back(x.file);
+        src->sop_instance_uids.push_back(x.sop_instance);
+    }
+    src->sop_class_uid = s[0].sop_class;
+    src->study_uid = s[0].study;
+    src->series_uid = s[0].series;
+    src->frame_of_reference_uid = s[0].frame_of_reference;
+    return true;
+}
+
+bool read_series(const std::string& dir, NiftiImage* out, std::string* err, const NiftiLimits& lim, DicomSource* src) {
     gdcm::Trace::SetWarning(false);
     gdcm::Trace::SetDebug(false);
     gdcm::Trace::SetError(false);
@@ -225,19 +247,22 @@ bool read_series(const std::string& dir, NiftiImage* out, std::string* err, cons
                                {iop[3] * ps[0], iop[4] * ps[0], iop[5] * ps[0]},
                                {step[0], step[1], step[2]}};
     out->descrip = "DICOM series";
+    if (src && !take_source(s, src, err)) return false;
     return img::set_lps_geometry(axis, s[0].ipp, out, "DICOM positions", "ImagePositionPatient / ImageOrientationPatient",
                                  err);
 }
 
 }  // namespace
 
-bool dicom_read_series(const std::string& directory, NiftiImage* out, std::string* err, const NiftiLimits& lim) {
+bool dicom_read_series(const std::string& directory, NiftiImage* out, std::string* err, const NiftiLimits& lim,
+                       DicomSource* source) {
     if (!out) return fail(err, "dicom_read_series: null output");
     *out = NiftiImage();
+    if (source) *source = DicomSource();
     std::string e;
     bool ok = false;
     try {
-        ok = read_series(directory, out, &e, lim);
+        ok = read_series(directory, out, &e, lim, source);
     } catch (const std::exception& ex) {
         e = std::string("GDCM failed: ") + ex.what();
     } catch (...) {

@@ -14,6 +14,7 @@
 
 #include <string>
 
+#include "dicom_series.h"
 #include "nifti.h"
 
 namespace ffseg_tools {
@@ -27,9 +28,11 @@ bool image_format_from_name(const std::string& name, ImageFormat* f);
 // sniffed ("NRRD000" -> nrrd, "ObjectType"/"NDims" -> metaimage, else nifti).
 ImageFormat image_format_of_path(const std::string& path);
 
-// Reads any supported image; *format (may be null) gets its format.
+// Reads any supported image; *format (may be null) gets its format and
+// *dicom (may be null) a DICOM series' identifiers (dicom_series.h; left
+// empty for the other formats).
 bool image_read_file(const std::string& path, NiftiImage* out, ImageFormat* format, std::string* err,
-                     const NiftiLimits& lim = {});
+                     const NiftiLimits& lim = {}, DicomSource* dicom = nullptr);
 
 // The label map's file name for a format family, and the writer by format
 // (nifti: gzip .nii.gz, nrrd: gzip .nrrd, metaimage: zlib .mha). DICOM has

@@ -63,10 +63,10 @@ std::vector<double> edt_mm(const uint8_t* mask, const int dims[3], const double 
 // byte written) and returns their number.
 std::size_t border_mask(const uint8_t* mask, const int dims[3], uint8_t* out);
 
-// The object voxel farthest from the background; ties go to the lowest linear
-// index. Background = zero voxels of the grid plus the layer of voxels just
-// beyond the grid (consistent with the border definition), so a mask filling
-// the whole grid still has finite depths. *dist_mm is the distance from that
+// The object voxel farthest from the background; ties (depths equal to 1e-9,
+// relative) go to the lowest linear index. Background = zero voxels of the
+// grid plus the layer of voxels just beyond the grid (consistent with the
+// border definition), so a mask filling the whole grid still has finite depths. *dist_mm is the distance from that
 // voxel's centre to the nearest background voxel centre (>= the smallest
 // spacing). Returns false (and leaves the outputs untouched) if the mask is
 // empty. Either output pointer may be null.

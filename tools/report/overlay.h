@@ -8,10 +8,12 @@
 // anisotropic voxels) and enlarged for small volumes.
 //
 // Orientation: the voxel axes are matched to the world axes they are closest
-// to (the index_to_world affine, assumed RAS as in NIfTI). Panels use the
-// neurological convention: the patient's left on the screen's left in axial
-// and coronal views, anterior up in axial, superior up in coronal and sagittal,
-// anterior on the left in sagittal; letters at the panel edges say so.
+// to (the index_to_world affine, assumed RAS as in NIfTI). Axial and coronal
+// panels are drawn in radiological order by default (the patient's right on
+// the screen's left, as CT and most radiology viewers show it) or in
+// neurological order (the patient's left on the left); anterior up in axial,
+// superior up in coronal and sagittal, anterior on the left in sagittal;
+// letters at the panel edges say so.
 #ifndef FFSEG_TOOLS_OVERLAY_H
 #define FFSEG_TOOLS_OVERLAY_H
 
@@ -32,12 +34,17 @@ struct OverlayObject {
                                   // yellow contour in this object's row, under the object's
 };
 
+enum class OverlayView { Radiological, Neurological };
+const char* overlay_view_name(OverlayView v);  // "radiological", "neurological"
+bool overlay_view_from_name(const std::string& name, OverlayView* v);
+
 struct OverlayVolume {
   std::function<double(size_t)> value;  // intensity of voxel i + dims[0]*(j + dims[1]*k)
   int dims[3] = {0, 0, 0};
   double spacing[3] = {1, 1, 1};  // mm along i, j, k
   double index_to_world[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   double window_lo = 0, window_hi = 1;
+  OverlayView view = OverlayView::Radiological;
 };
 
 struct RgbImage {
