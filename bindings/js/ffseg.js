@@ -1,0 +1,429 @@
+/* ffseg from JavaScript: the C ABI (include/ffseg.h) of the WebAssembly build
+ * (`make wasm`: build-wasm/ffseg.js + ffseg.wasm), with typed arrays in and out.
+ *
+ *     const ffseg = require("./bindings/js/ffseg.js");   // or a <script>/importScripts: self.ffseg
+ *     const lib = await ffseg.load();                    // Node: build-wasm/ (or FFSEG_WASM_DIR)
+ *     const e = new lib.Engine({ maxObjects: 1, meshResolution: 33 });
+ *     e.setParams({ targetMode: "intensity", stepSize: 0.5 });
+ *     e.setVolume(voxels, [nx, ny, nz], affine);         // voxels: Uint8Array ... Float64Array, i fastest
+ *     e.initSphere(0, [x, y, z], radiusMm);
+ *     while (!e.step().atRest) {}
+ *     const { vertices, triangles } = e.extractMesh(0); // Float32Array xyz, Uint32Array
+ *     const mask = e.rasterize(0);                       // Uint8Array, i fastest
+ *     e.close();
+ *
+ * Every failing call throws ffseg.FfsegError with .status (the C code), .code
+ * (its FFSEG_ERR_* name without the prefix), .call and the engine's message.
+ * The engine lives in one workspace allocated in the module's memory at
+ * construction; the volume, mask and mesh buffers are allocated by
+ * setVolume / initSphere, so step, extractMesh and rasterize allocate nothing
+ * (bindings/js/test/nomalloc.test.js checks it).
+ */
+(function (root, make) {
+  if (typeof module === "object" && module.exports) module.exports = make();
+  else root.ffseg = make();
+})(typeof self !== "undefined" ? self : this, function () {
+  "use strict";
+
+  const OK = 0, CONVERGED = 1, DEGENERATE = 2;
+  const STATUS_CODES = {
+    [-1]: "INVALID_ARGUMENT", [-2]: "NULL_POINTER", [-3]: "WORKSPACE_TOO_SMALL",
+    [-4]: "WORKSPACE_MISALIGNED", [-5]: "INVALID_VOLUME", [-6]: "OBJECT_OUT_OF_RANGE",
+    [-7]: "BUFFER_TOO_SMALL", [-8]: "MISUSE", [-9]: "NUMERIC", [-10]: "ROI_TOO_LARGE",
+    [-11]: "SPHERE_OUTSIDE", [-12]: "STRUCT_SIZE", [-13]: "CONFIG_TOO_LARGE",
+    [-14]: "NOT_IMPLEMENTED",
+  };
+  const TARGET_MODES = { binary: 0, intensity: 1 };
+  const STAGE_NAMES = ["search", "flips", "diffusion", "intersection", "assembly",
+    "factor", "solve", "features", "guard", "regions"];
+  const REPORT_OBJECTS = 16;
+  const OBJECT_NO_BOUNDARY = 1, OBJECT_FILLS_GRID = 2;
+  // FFSEG_U8 ... FFSEG_F64 by typed-array class.
+  const VOXEL_TYPES = new Map([
+    ["Uint8Array", 1], ["Int16Array", 2], ["Uint16Array", 3], ["Int32Array", 4],
+    ["Float32Array", 5], ["Float64Array", 6],
+  ]);
+
+  class FfsegError extends Error {
+    constructor(status, message, call) {
+      const code = STATUS_CODES[status] || "UNKNOWN";
+      super(`${call ? call + ": " : ""}${message} [${code}, status ${status}]`);
+      this.name = "FfsegError";
+      this.status = status;
+      this.code = code;
+      this.call = call || null;
+      this.engineMessage = message;
+    }
+  }
+
+  // ---- the structs, laid out by wasm32's C rules (pointers and size_t are 4
+  // bytes, each field aligned to its size, the struct to its widest field).
+  // test/abi.test.js compares every offset with the C compiler's (abi_layout.js).
+  const SIZES = { u32: 4, i64: 8, f64: 8, ptr: 4 };
+  function layout(fields) {
+    const out = { fields: {}, size: 0 };
+    let off = 0, align = 1;
+    for (const [name, type, count = 1] of fields) {
+      const s = SIZES[type];
+      off = Math.ceil(off / s) * s;
+      out.fields[name] = { offset: off, type, count, size: s * count };
+      off += s * count;
+      align = Math.max(align, s);
+    }
+    out.size = Math.ceil(off / align) * align;
+    return out;
+  }
+  const CONFIG = layout([["struct_size", "u32"], ["max_objects", "u32"], ["mesh_resolution", "u32"],
+    ["reserved0", "u32"], ["max_roi_voxels", "i64"], ["target_mode", "u32"], ["reserved1", "u32"]]);
+  const PARAMS = layout([["struct_size", "u32"], ["target_mode", "u32"], ["lambda_laplacian", "f64"],
+    ["lambda_position", "f64"], ["lambda_uniform", "f64"], ["step_size", "f64"], ["flip_tau", "f64"],
+    ["search_range_mm", "f64"], ["search_step_mm", "f64"], ["convergence_mm", "f64"],
+    ["diffusion_iterations", "u32"], ["consecutive_background", "u32"], ["smoothing_iterations", "u32"],
+    ["bin_min_count", "u32"], ["smoothing_kappa", "f64"], ["intensity_gamma", "f64"],
+    ["sigma_floor_fraction", "f64"], ["bin_radius", "f64"], ["bin_separation", "f64"],
+    ["partial_volume_steps", "u32"], ["reserved1", "u32"], ["region_width_mm", "f64"],
+    ["border_weight", "f64"], ["region_interval", "u32"], ["reserved2", "u32"]]);
+  const VOLUME = layout([["struct_size", "u32"], ["voxel_type", "u32"], ["data", "ptr"],
+    ["data_bytes", "i64"], ["offset", "i64"], ["dims", "i64", 3], ["strides", "i64", 3],
+    ["index_to_world", "f64", 16], ["rescale_slope", "f64"], ["rescale_intercept", "f64"]]);
+  const STEP_INFO = layout([["struct_size", "u32"], ["step_index", "u32"], ["active_objects", "u32"],
+    ["reserved0", "u32"], ["mean_displacement_mm", "f64", REPORT_OBJECTS],
+    ["vertices_with_target", "u32", REPORT_OBJECTS], ["flips_avoided", "u32", REPORT_OBJECTS],
+    ["intersections_avoided", "u32", REPORT_OBJECTS], ["border_vertices", "u32", REPORT_OBJECTS],
+    ["stage_us", "i64", STAGE_NAMES.length], ["object_flags", "u32", REPORT_OBJECTS],
+    ["flags_all", "u32"], ["reserved1", "u32"]]);
+  const LAYOUTS = { ffseg_config: CONFIG, ffseg_params: PARAMS, ffseg_volume: VOLUME, ffseg_step_info: STEP_INFO };
+
+  const camel = (s) => s.replace(/_([a-z])/g, (_, c) => c.toUpperCase());
+  // ffseg_params fields a caller sets, by their JavaScript names (lambdaLaplacian ...).
+  const PARAM_NAMES = Object.keys(PARAMS.fields).filter((n) => n !== "struct_size" && !n.startsWith("reserved"));
+  const PARAM_BY_CAMEL = new Map(PARAM_NAMES.map((n) => [camel(n), n]));
+
+  // Reads and writes one struct in the module's memory. The memory may grow
+  // (and its ArrayBuffer be replaced) whenever the JavaScript side allocates,
+  // so the view is taken afresh for each use.
+  class StructView {
+    constructor(mod, ptr, lay) { this.mod = mod; this.ptr = ptr; this.lay = lay; }
+    view() { return new DataView(this.mod.HEAPU8.buffer, this.ptr, this.lay.size); }
+    clear() { this.mod.HEAPU8.fill(0, this.ptr, this.ptr + this.lay.size); }
+    get(name, i = 0) {
+      const f = this.lay.fields[name], dv = this.view(), at = f.offset + i * SIZES[f.type];
+      switch (f.type) {
+        case "u32": case "ptr": return dv.getUint32(at, true);
+        case "f64": return dv.getFloat64(at, true);
+        case "i64": return Number(dv.getBigInt64(at, true));
+      }
+      throw new Error("unknown field type " + f.type);
+    }
+    set(name, value, i = 0) {
+      const f = this.lay.fields[name], dv = this.view(), at = f.offset + i * SIZES[f.type];
+      switch (f.type) {
+        case "u32": case "ptr": dv.setUint32(at, value, true); return;
+        case "f64": dv.setFloat64(at, value, true); return;
+        case "i64": dv.setBigInt64(at, BigInt(value), true); return;
+      }
+      throw new Error("unknown field type " + f.type);
+    }
+    array(name) {
+      const f = this.lay.fields[name], out = [];
+      for (let i = 0; i < f.count; ++i) out.push(this.get(name, i));
+      return out;
+    }
+  }
+
+  function u32(x, what, call) {
+    if (!Number.isInteger(x) || x < 0 || x > 0xffffffff)
+      throw new FfsegError(-1, `${what}: ${JSON.stringify(x)} is not an integer in 0..2^32-1`, call);
+    return x;
+  }
+  function finiteVector(v, n, what, call) {
+    const a = Array.from(v || [], Number);
+    if (a.length !== n || !a.every(Number.isFinite))
+      throw new FfsegError(-1, `${what} needs ${n} finite numbers, got ${JSON.stringify(v)}`, call);
+    return a;
+  }
+
+  // The library over one instantiated module.
+  function bind(mod) {
+    const C = {};
+    for (const k of Object.keys(mod)) if (k.startsWith("_ffseg_")) C[k.slice(1)] = mod[k];
+    const text = (p) => (p ? mod.UTF8ToString(p) : "");
+
+    function malloc(bytes, call) {
+      // 64 spare bytes: the workspace must start on a 64-byte boundary.
+      const p = mod._malloc(bytes + 64);
+      if (!p) throw new FfsegError(-3, `cannot allocate ${bytes} bytes in the WebAssembly memory (limit 2 GiB)`, call);
+      return p;
+    }
+    function check(status, call, enginePtr) {
+      if (status < 0) {
+        const msg = text(C.ffseg_last_error(enginePtr || 0));
+        throw new FfsegError(status, msg || text(C.ffseg_status_string(status)), call);
+      }
+      return status;
+    }
+
+    class StepReport {
+      constructor(info, status, objects) {
+        const n = Math.min(objects, REPORT_OBJECTS);
+        this.status = status === CONVERGED ? "converged" : status === DEGENERATE ? "degenerate" : "ok";
+        this.atRest = status === CONVERGED || status === DEGENERATE;
+        this.stepIndex = info.get("step_index");
+        this.activeObjects = info.get("active_objects");
+        for (const f of ["mean_displacement_mm", "vertices_with_target", "flips_avoided",
+          "intersections_avoided", "border_vertices", "object_flags"])
+          this[camel(f)] = info.array(f).slice(0, n);
+        this.flagsAll = info.get("flags_all");
+        this.stageUs = {};
+        STAGE_NAMES.forEach((s, i) => { this.stageUs[s] = info.get("stage_us", i); });
+      }
+    }
+
+    class Engine {
+      /* maxObjects 1..64, meshResolution n (6 n^2 vertices per mesh),
+       * maxRoiVoxels (the library's default when omitted), targetMode
+       * "intensity" (default: both modes allowed) or "binary" (smaller workspace). */
+      constructor({ maxObjects = 1, meshResolution = 33, maxRoiVoxels, targetMode = "intensity" } = {}) {
+        const call = "Engine";
+        this._mod = mod;
+        this._blocks = [];
+        this._e = 0;
+        const scratchBytes = CONFIG.size + PARAMS.size + VOLUME.size + STEP_INFO.size + 128;
+        this._scratch = this._alloc(scratchBytes, call);
+        let at = this._scratch;
+        const next = (lay) => { const v = new StructView(mod, at, lay); at += Math.ceil(lay.size / 8) * 8; return v; };
+        const cfg = next(CONFIG);
+        this._params = next(PARAMS);
+        this._vol = next(VOLUME);
+        this._info = next(STEP_INFO);
+        this._small = at;  // centre (3 doubles), then two size_t counts, then the strides (3 int64)
+        C.ffseg_config_init_default(cfg.ptr);
+        cfg.set("struct_size", CONFIG.size);
+        cfg.set("max_objects", u32(maxObjects, "maxObjects", call));
+        cfg.set("mesh_resolution", u32(meshResolution, "meshResolution", call));
+        if (maxRoiVoxels !== undefined) {
+          if (!Number.isSafeInteger(maxRoiVoxels)) throw new FfsegError(-1, `maxRoiVoxels: ${maxRoiVoxels} is not an integer`, call);
+          cfg.set("max_roi_voxels", maxRoiVoxels);
+        }
+        if (!(targetMode in TARGET_MODES))
+          throw new FfsegError(-1, `targetMode: expected "binary" or "intensity", got ${JSON.stringify(targetMode)}`, call);
+        cfg.set("target_mode", TARGET_MODES[targetMode]);
+        const sizeAt = this._small + 24;
+        check(C.ffseg_workspace_size(cfg.ptr, sizeAt), "ffseg_workspace_size");
+        this.workspaceBytes = new DataView(mod.HEAPU8.buffer).getUint32(sizeAt, true);
+        const raw = this._alloc(this.workspaceBytes, call);
+        this._workspace = raw + ((64 - (raw % 64)) % 64);
+        check(C.ffseg_create(cfg.ptr, this._workspace, this.workspaceBytes, sizeAt), "ffseg_create");
+        this._e = new DataView(mod.HEAPU8.buffer).getUint32(sizeAt, true);
+        this.config = { maxObjects, meshResolution, maxRoiVoxels: cfg.get("max_roi_voxels"), targetMode };
+        C.ffseg_params_init_default(this._params.ptr);
+        this._params.set("struct_size", PARAMS.size);
+        this._dims = null;
+        this._volBuf = 0; this._volCap = 0;
+        this._maskBuf = 0; this._maskCap = 0;
+        this._meshBuf = 0; this._meshCounts = null;
+        this.lastStep = null;
+      }
+
+      _alloc(bytes, call) { const p = malloc(bytes, call); this._blocks.push(p); return p; }
+      _handle(call) {
+        if (!this._e) throw new FfsegError(-8, "the engine was closed", call);
+        return this._e;
+      }
+
+      /* Ends the engine and frees its workspace and buffers. Safe to call twice. */
+      close() {
+        if (this._e) C.ffseg_destroy(this._e);
+        this._e = 0;
+        for (const p of this._blocks) mod._free(p);
+        this._blocks = [];
+      }
+
+      /* The current parameters, by their JavaScript names. */
+      get params() {
+        const out = {};
+        for (const n of PARAM_NAMES) out[camel(n)] = this._params.get(n);
+        return out;
+      }
+
+      /* Sets ffseg_params fields by name (targetMode also "binary" / "intensity");
+       * the others keep their values. On an error nothing changes and the
+       * message names the field. */
+      setParams(fields) {
+        const call = "setParams", h = this._handle(call);
+        const p = this._params, saved = mod.HEAPU8.slice(p.ptr, p.ptr + PARAMS.size);
+        try {
+          for (let [name, value] of Object.entries(fields || {})) {
+            const c = PARAM_BY_CAMEL.get(name);
+            if (!c) throw new FfsegError(-1, `unknown parameter '${name}' (known: ${[...PARAM_BY_CAMEL.keys()].join(", ")})`, call);
+            if (c === "target_mode" && typeof value === "string") {
+              if (!(value in TARGET_MODES)) throw new FfsegError(-1, `targetMode: expected "binary" or "intensity", got "${value}"`, call);
+              value = TARGET_MODES[value];
+            }
+            if (PARAMS.fields[c].type === "u32") p.set(c, u32(value, name, call));
+            else {
+              if (typeof value !== "number" || Number.isNaN(value)) throw new FfsegError(-1, `${name}: ${JSON.stringify(value)} is not a number`, call);
+              p.set(c, value);
+            }
+          }
+          check(C.ffseg_set_params(h, p.ptr), "ffseg_set_params", h);
+        } catch (ex) {
+          mod.HEAPU8.set(saved, p.ptr);
+          throw ex;
+        }
+      }
+
+      /* The volume: voxels a typed array (Uint8, Int16, Uint16, Int32, Float32,
+       * Float64) of dims[0]*dims[1]*dims[2] values, i fastest (NIfTI order);
+       * affine: 16 numbers row-major (or 4 rows), voxel centre -> world mm.
+       * The voxels are copied into the module's memory (a buffer kept and reused
+       * for volumes no larger). */
+      setVolume(voxels, dims, affine, { rescaleSlope = 1, rescaleIntercept = 0 } = {}) {
+        const call = "setVolume", h = this._handle(call);
+        const type = voxels && VOXEL_TYPES.get(voxels.constructor.name);
+        if (!type) throw new FfsegError(-5, `unsupported voxel array ${voxels && voxels.constructor.name} (supported: ${[...VOXEL_TYPES.keys()].join(", ")})`, call);
+        const d = finiteVector(dims, 3, "dims", call);
+        if (!d.every((x) => Number.isInteger(x) && x >= 1))
+          throw new FfsegError(-5, `dims must be 3 positive integers, got ${JSON.stringify(dims)}`, call);
+        const count = d[0] * d[1] * d[2];
+        if (voxels.length !== count)
+          throw new FfsegError(-5, `the voxel array holds ${voxels.length} values, dims ${d.join("x")} need ${count}`, call);
+        const A = finiteVector(Array.isArray(affine) && Array.isArray(affine[0]) ? affine.flat() : affine, 16, "affine", call);
+        const bytes = voxels.byteLength;
+        if (bytes > this._volCap) {
+          // The engine borrows the old buffer until set_volume succeeds; it is
+          // kept (not freed) so a refused volume leaves the previous one valid.
+          this._volBuf = this._alloc(bytes, call);
+          this._volCap = bytes;
+        }
+        mod.HEAPU8.set(new Uint8Array(voxels.buffer, voxels.byteOffset, bytes), this._volBuf);
+        const v = this._vol, bpv = voxels.BYTES_PER_ELEMENT;
+        v.clear();
+        v.set("struct_size", VOLUME.size);
+        v.set("voxel_type", type);
+        v.set("data", this._volBuf);
+        v.set("data_bytes", bytes);
+        v.set("offset", 0);
+        [bpv, bpv * d[0], bpv * d[0] * d[1]].forEach((s, a) => { v.set("dims", d[a], a); v.set("strides", s, a); });
+        A.forEach((x, i) => v.set("index_to_world", x, i));
+        v.set("rescale_slope", rescaleSlope);
+        v.set("rescale_intercept", rescaleIntercept);
+        check(C.ffseg_set_volume(h, v.ptr), "ffseg_set_volume", h);
+        if (count > this._maskCap) { this._maskBuf = this._alloc(count, call); this._maskCap = count; }
+        this._dims = d;
+      }
+
+      /* The rescaled intensity at a world point: trilinear, or the nearest voxel. */
+      sample(pointMm, linear = true) {
+        const call = "sample", h = this._handle(call);
+        const pt = finiteVector(pointMm, 3, "point", call);
+        const f64 = new Float64Array(mod.HEAPU8.buffer, this._small, 4);
+        f64.set(pt);
+        check(C.ffseg_sample(h, this._small, linear ? 1 : 0, this._small + 24), "ffseg_sample", h);
+        return new Float64Array(mod.HEAPU8.buffer, this._small, 4)[3];
+      }
+
+      /* Places object obj's mesh on a sphere (world mm). */
+      initSphere(obj, centerMm, radiusMm) {
+        const call = "initSphere", h = this._handle(call);
+        const c = finiteVector(centerMm, 3, "centre", call);
+        new Float64Array(mod.HEAPU8.buffer, this._small, 3).set(c);
+        check(C.ffseg_init_sphere(h, u32(obj, "object", call), this._small, Number(radiusMm)), "ffseg_init_sphere", h);
+        if (!this._meshCounts) {
+          const nv = this._small + 24, nt = this._small + 28;
+          check(C.ffseg_extract_mesh(h, obj, 0, 0, 0, 0, nv, nt), "ffseg_extract_mesh", h);
+          const dv = new DataView(mod.HEAPU8.buffer);
+          const counts = { vertices: dv.getUint32(nv, true), triangles: dv.getUint32(nt, true) };
+          this._meshBuf = this._alloc(counts.vertices * 12 + counts.triangles * 12, call);
+          this._meshCounts = counts;
+        }
+      }
+
+      /* One deformation step of every placed object; returns the step's report
+       * (StepReport: atRest once every object is at rest, status "ok",
+       * "converged" or "degenerate", per-object arrays, stageUs by stage). */
+      step() {
+        const call = "step", h = this._handle(call);
+        this._info.clear();
+        this._info.set("struct_size", STEP_INFO.size);
+        const st = check(C.ffseg_step(h, this._info.ptr), "ffseg_step", h);
+        this.lastStep = new StepReport(this._info, st, this.config.maxObjects);
+        return this.lastStep;
+      }
+
+      /* { vertices: Float32Array (x, y, z mm per vertex), triangles: Uint32Array
+       * (3 indices each, counter-clockwise seen from outside) }: copies. */
+      extractMesh(obj) {
+        const call = "extractMesh", h = this._handle(call);
+        if (!this._meshCounts) throw new FfsegError(-8, "no object placed: call initSphere first", call);
+        const { vertices, triangles } = this._meshCounts;
+        const xyz = this._meshBuf, tri = xyz + vertices * 12, counts = this._small + 24;
+        check(C.ffseg_extract_mesh(h, u32(obj, "object", call), xyz, vertices, tri, triangles, counts, counts + 4),
+          "ffseg_extract_mesh", h);
+        const buf = mod.HEAPU8.buffer;
+        return {
+          vertices: new Float32Array(buf, xyz, vertices * 3).slice(),
+          triangles: new Uint32Array(buf, tri, triangles * 3).slice(),
+        };
+      }
+
+      /* Uint8Array over the volume grid (i fastest): 1 where the voxel centre
+       * lies inside object obj's mesh. out: a Uint8Array of that length to fill. */
+      rasterize(obj, out) { return this._mask("ffseg_rasterize", obj, out); }
+
+      /* Uint8Array: 1 where object obj owns the voxel's bounding region (two or
+       * more objects placed, after a step). */
+      regionMask(obj, out) { return this._mask("ffseg_region_mask", obj, out); }
+
+      _mask(fn, obj, out) {
+        const h = this._handle(fn);
+        if (!this._dims) throw new FfsegError(-8, "no volume: call setVolume first", fn);
+        const n = this._dims[0] * this._dims[1] * this._dims[2];
+        if (out !== undefined && !(out instanceof Uint8Array && out.length === n))
+          throw new FfsegError(-1, `out must be a Uint8Array of ${n} values`, fn);
+        check(C[fn](h, u32(obj, "object", fn), this._maskBuf, 0), fn, h);
+        const src = new Uint8Array(mod.HEAPU8.buffer, this._maskBuf, n);
+        if (out) { out.set(src); return out; }
+        return src.slice();
+      }
+    }
+
+    return {
+      Engine,
+      module: mod,
+      version() {
+        const v = C.ffseg_version_number();
+        return [Math.floor(v / 10000), Math.floor(v / 100) % 100, v % 100];
+      },
+      statusString: (s) => text(C.ffseg_status_string(s)),
+      calls: C,
+    };
+  }
+
+  /* Instantiates the WebAssembly module and binds it.
+   *   factory:    emscripten's createFfsegModule (Node: required from dir)
+   *   wasmBinary: the .wasm bytes (Node: read from dir)
+   *   dir:        Node only; default FFSEG_WASM_DIR, else build-wasm/ of this tree
+   *   name:       "ffseg" (default) or "ffseg_nomalloc" (the malloc-trap build) */
+  async function load({ factory, wasmBinary, dir, name = "ffseg" } = {}) {
+    const isNode = typeof process === "object" && process.versions && process.versions.node && typeof require === "function";
+    if ((!factory || !wasmBinary) && isNode) {
+      const path = require("path"), fs = require("fs");
+      const d = dir || process.env.FFSEG_WASM_DIR || path.join(__dirname, "..", "..", "build-wasm");
+      const js = path.join(d, name + ".js"), wasm = path.join(d, name + ".wasm");
+      if (!fs.existsSync(js) || !fs.existsSync(wasm))
+        throw new Error(`ffseg: ${js} or ${wasm} is missing; build them with \`make wasm\` (or set FFSEG_WASM_DIR)`);
+      factory = factory || require(js);
+      wasmBinary = wasmBinary || fs.readFileSync(wasm);
+    }
+    if (!factory || !wasmBinary) throw new Error("ffseg.load: give factory (createFfsegModule) and wasmBinary");
+    // Handing the bytes over keeps emscripten's loader from fetching the file.
+    const mod = await factory({ wasmBinary, print: () => {}, printErr: () => {} });
+    return bind(mod);
+  }
+
+  return {
+    load, FfsegError, LAYOUTS, PARAM_NAMES: PARAM_NAMES.map(camel), STAGE_NAMES,
+    OK, CONVERGED, DEGENERATE, OBJECT_NO_BOUNDARY, OBJECT_FILLS_GRID, STATUS_CODES,
+  };
+});

@@ -1,0 +1,49 @@
+// The wasm build against the native tool on Colin27: the left putamen (AAL 73)
+// from its protocol sphere (--sphere-from-label), grey levels, n = 33, must give
+// the same mask voxel for voxel. The tool is FFSEG_CLI (default build/ffseg).
+"use strict";
+const test = require("node:test");
+const assert = require("node:assert");
+const os = require("os");
+const { execFileSync } = require("child_process");
+const { ROOT, count, load, fs, path } = require("./helpers.js");
+const nifti = require("../nifti.js");
+const { segmentLikeTool } = require("./segment_like_tool.js");
+
+const MRI = "/usr/share/mricron/templates";
+const CLI = process.env.FFSEG_CLI || path.join(ROOT, "build", "ffseg");
+const N = 33;
+
+async function readNifti(file) { return nifti.read(await nifti.gunzip(fs.readFileSync(file))); }
+
+test("the left putamen: the wasm build's mask is the native tool's, voxel for voxel", async (t) => {
+  assert.ok(fs.existsSync(CLI), `${CLI} is missing (make build, or set FFSEG_CLI)`);
+  const out = fs.mkdtempSync(path.join(os.tmpdir(), "ffseg-js-colin27-"));
+  t.after(() => fs.rmSync(out, { recursive: true, force: true }));
+  execFileSync(CLI, ["segment", `${MRI}/ch2.nii.gz`, "--sphere-from-label", `${MRI}/aal.nii.gz:73`,
+    "--mesh-resolution", String(N), "--names", "putamen_L", "--out", out, "--force", "--quiet"], { stdio: "pipe" });
+  const report = JSON.parse(fs.readFileSync(path.join(out, "report.json"), "utf8"));
+  const obj = report.objects[0];
+  const native = await readNifti(path.join(out, "labels.nii.gz"));
+
+  const img = await readNifti(`${MRI}/ch2.nii.gz`);
+  // the reader picks the tool's affine
+  assert.strictEqual(img.which, report.input.affine_source);
+  assert.deepStrictEqual(img.affine, report.input.index_to_world.flat());
+  const lib = await load();
+  const run = segmentLikeTool(lib, img, [{ centre: obj.sphere.center_mm, radius: obj.sphere.radius_mm }], { meshResolution: N });
+  const mask = run.masks[0];
+
+  assert.strictEqual(run.steps, report.steps, "steps to rest");
+  let differ = 0, first = -1;
+  for (let i = 0; i < mask.length; ++i)
+    if ((mask[i] !== 0) !== (native.voxels[i] !== 0)) { ++differ; if (first < 0) first = i; }
+  assert.strictEqual(differ, 0, `${differ} voxels differ (first at index ${first})`);
+  assert.strictEqual(count(mask), obj.voxels);
+  // The masks agree; the last bits of the displacement figures need not (the
+  // report says by how much: wasm's libm and the x86 build's kernels).
+  const a = run.last.meanDisplacementMm[0], b = obj.final_mean_displacement_mm;
+  const rel = Math.abs(a - b) / Math.abs(b);
+  t.diagnostic(`final mean displacement: wasm ${a}, native ${b}, relative difference ${rel.toExponential(2)}`);
+  assert.ok(rel < 1e-9, `final mean displacement wasm ${a} vs native ${b}`);
+});
