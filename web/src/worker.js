@@ -1,0 +1,93 @@
+/* The engine's thread: the page hands it the file's bytes and the spheres; it
+ * steps the engine and posts every step's report and meshes back, so the page
+ * stays responsive. Classic worker: the emscripten glue (ffseg.js), the
+ * binding and the NIfTI reader are plain scripts beside it in dist/. */
+/* global importScripts, ffseg, ffsegNifti, createFfsegModule */
+"use strict";
+importScripts("ffseg.js", "ffseg-binding.js", "nifti.js");
+
+let lib = null;
+let image = null;
+let stopRequested = false;
+let busy = false;
+
+async function library() {
+  if (!lib) {
+    const response = await fetch("ffseg.wasm");
+    if (!response.ok) throw new Error(`cannot load ffseg.wasm (HTTP ${response.status})`);
+    lib = await ffseg.load({ factory: createFfsegModule, wasmBinary: await response.arrayBuffer() });
+  }
+  return lib;
+}
+
+const yieldToMessages = () => new Promise((resolve) => setTimeout(resolve, 0));
+
+async function openVolume(bytes, name) {
+  const raw = new Uint8Array(bytes);
+  image = null;
+  image = ffsegNifti.read(await ffsegNifti.gunzip(raw));
+  await library();
+  postMessage({ type: "volume", name, dims: image.dims, affine: image.affine, which: image.which,
+    datatype: image.datatypeName, spacing: image.spacing });
+}
+
+async function segment({ spheres, target = "intensity", meshResolution = 33, maxSteps = 200 }) {
+  if (!image) throw new Error("open a volume first");
+  if (!spheres.length) throw new Error("place a sphere first (click a slice)");
+  const L = await library();
+  const n = image.dims[0] * image.dims[1] * image.dims[2];
+  // One workspace for the whole run, sized by the engine, allocated here once.
+  const e = new L.Engine({ maxObjects: spheres.length, meshResolution, maxRoiVoxels: Math.min(n, 2 ** 26), targetMode: target });
+  busy = true;
+  stopRequested = false;
+  try {
+    e.setParams({ targetMode: target });
+    e.setVolume(image.voxels, image.dims, image.affine, { rescaleSlope: image.sclSlope, rescaleIntercept: image.sclInter });
+    spheres.forEach((s, k) => {
+      try {
+        e.initSphere(k, s.centre, s.radius);
+      } catch (ex) {
+        ex.message = `sphere ${k + 1} (${s.centre.map((x) => x.toFixed(1)).join(", ")}; r ${s.radius} mm): ${ex.engineMessage || ex.message}`;
+        throw ex;
+      }
+    });
+    const stepMs = [];
+    let report = null;
+    for (let s = 0; s < maxSteps && !stopRequested; ++s) {
+      const t0 = performance.now();
+      report = e.step();
+      stepMs.push(performance.now() - t0);
+      const meshes = spheres.map((_, k) => e.extractMesh(k));
+      postMessage({ type: "step", report: { ...report }, meshes, ms: stepMs[stepMs.length - 1] },
+        meshes.flatMap((m) => [m.vertices.buffer, m.triangles.buffer]));
+      if (report.atRest) break;
+      await yieldToMessages();
+    }
+    // The label map: object k's voxels get label k + 1 (a voxel two meshes
+    // share keeps the lower label, as the regions keep objects apart anyway).
+    const labels = new Uint8Array(n);
+    for (let k = spheres.length - 1; k >= 0; --k) {
+      const m = e.rasterize(k);
+      for (let i = 0; i < n; ++i) if (m[i]) labels[i] = k + 1;
+    }
+    const file = ffsegNifti.writeLabels(image, labels, "ffseg " + spheres.length + " object(s)");
+    postMessage({ type: "done", steps: stepMs.length, stopped: stopRequested, status: report ? report.status : "none",
+      stepMs, labels: file }, [file.buffer]);
+  } finally {
+    busy = false;
+    e.close();
+  }
+}
+
+onmessage = async (ev) => {
+  const m = ev.data;
+  try {
+    if (m.type === "volume") await openVolume(m.bytes, m.name);
+    else if (m.type === "segment") {
+      if (busy) throw new Error("a segmentation is running; stop it first");
+      await segment(m);
+    } else if (m.type === "stop") stopRequested = true;
+  } catch (ex) {
+    postMessage({ type: "error", during: m.type, message: ex && ex.message ? ex.message : String(ex) });
+  }
+};
