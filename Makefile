@@ -10,6 +10,10 @@
 #   make abi-baseline  rewrite abi/libffseg.so.0.abi (only after a version bump if the ABI changed)
 #   make check-bindings  install into build-bindings/prefix; build and run the C (pkg-config),
 #                        C/C++ (find_package), Rust and C# consumers and their tests against it
+#   make wasm          the library compiled to WebAssembly (emscripten): build-wasm/ffseg.js + .wasm
+#   make check-wasm    the JavaScript binding's Node tests (bindings/js/test) against the wasm build
+#   make web           build the viewer page (web/dist) and serve web/ on http://127.0.0.1:$(WEB_PORT)/
+#   make check-browser the viewer in headless Chromium against the ffseg tool (web/test)
 BUILD ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 PREFIX ?= /usr/local
@@ -24,9 +28,14 @@ DEB_PACKAGES += python3-numpy python3-pytest python3-distributed python3-nibabel
 DEB_PACKAGES += libdcmtk-dev dicom3tools
 # Rust and C# bindings, ABI check (issue 17): Debian's rustc 1.63 / cargo, Mono, libabigail.
 DEB_PACKAGES += rustc cargo mono-mcs mono-runtime abigail-tools
+# The browser build and its checks (issue 32): emscripten 3.1.6 (it brings Debian's
+# Node.js), Chromium for the headless page test. npm is installed below only when
+# no npm is on the PATH: a Node.js from elsewhere bundles its own and conflicts
+# with Debian's npm package.
+DEB_PACKAGES += emscripten chromium
 
 .PHONY: all build deps test demo bench install clean fuzz fuzz-smoke fuzz-soak coverage check-sanitizers check-portable check-python \
-        check-bindings check-abi abi-baseline
+        check-bindings check-abi abi-baseline wasm check-wasm web web-dist check-browser
 
 all: build
 
@@ -34,6 +43,7 @@ deps:
 	@missing=""; for p in $(DEB_PACKAGES); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
 	done; \
+	command -v npm >/dev/null 2>&1 || missing="$$missing npm"; \
 	if [ -n "$$missing" ]; then \
 	  echo "deps: installing$$missing"; \
 	  SUDO=""; [ "$$(id -u)" -eq 0 ] || SUDO=sudo; \
@@ -108,6 +118,39 @@ FORCE:
 
 clean:
 	rm -rf $(BUILD)
+
+# ---- the browser (issue 32) ----------------------------------------------------
+# Debian's emcc runs its JavaScript tools with Debian's Node modules.
+WASM_BUILD ?= build-wasm
+WEB_PORT ?= 8032
+EMSCRIPTEN_ENV := NODE_PATH=/usr/share/nodejs
+
+$(WASM_BUILD)/CMakeCache.txt:
+	$(EMSCRIPTEN_ENV) emcmake cmake -S wasm -B $(WASM_BUILD) -DCMAKE_BUILD_TYPE=Release
+
+wasm: deps $(WASM_BUILD)/CMakeCache.txt
+	$(EMSCRIPTEN_ENV) nice -n 10 cmake --build $(WASM_BUILD) -j $(JOBS)
+
+# The Colin27 comparison runs the native tool: it is built too.
+check-wasm: wasm $(BUILD)/CMakeCache.txt
+	cmake --build $(BUILD) -j $(JOBS) --target ffseg_cli
+	FFSEG_WASM_DIR=$(CURDIR)/$(WASM_BUILD) FFSEG_CLI=$(CURDIR)/$(BUILD)/ffseg node --test bindings/js/test/*.test.js
+
+# npm packages only from web/package-lock.json.
+web/node_modules/.package-lock.json: web/package.json web/package-lock.json
+	cd web && npm ci --no-audit --no-fund
+	touch $@
+
+web-dist: wasm web/node_modules/.package-lock.json
+	node web/build.js $(WASM_BUILD)
+
+web: web-dist
+	node web/serve.js $(WEB_PORT)
+
+# FFSEG_SCREENSHOT=docs/viewer.png also keeps the screenshot taken after segmenting.
+check-browser: web-dist $(BUILD)/CMakeCache.txt
+	cmake --build $(BUILD) -j $(JOBS) --target ffseg_cli
+	FFSEG_CLI=$(CURDIR)/$(BUILD)/ffseg node --test web/test/browser.test.js
 
 # ---- robustness: libFuzzer targets and sanitizer builds (FUZZING.md) -----------
 #   make fuzz              build the three fuzzers into build-fuzz/ (clang)
