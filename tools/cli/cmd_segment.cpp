@@ -29,6 +29,7 @@
 #include "dicom_outputs.h"
 #include "dicom_study.h"
 #include "label_grid.h"
+#include "report_html.h"
 #include "report_json.h"
 
 namespace ffseg_cli {
@@ -843,6 +844,10 @@ int cmd_segment(int argc, char** argv) {
   times.start = std::chrono::steady_clock::now();
   SegmentRequest rq = parse_segment_request(argc, argv);
   if (rq.help) return kExitOk;
+  const std::string viewer_js = rq.html ? find_report_viewer() : "";
+  if (rq.html && viewer_js.empty())
+    fail(kExitUsage, "--html: the viewer script report-viewer.js was not found beside the tool (build it with "
+                     "`make web-dist`, or set FFSEG_VIEWER_JS to its path)");
   install_interrupt_handlers();
   Inputs in;
   read_inputs(&rq, &in);
@@ -939,6 +944,8 @@ int cmd_segment(int argc, char** argv) {
   if (rq.seed_check) rep.set("seed_check", seed_check_json(seeds, rq.names));
   if (rq.consensus) rep.set("consensus", consensus_json(rq, in, seeds, consensus, consensus_file));
   if (!write_text_file(tmp.path + "/report.json", rep.dump(), &err)) fail(kExitFailure, err);
+  if (rq.html && !write_report_html(tmp.path, viewer_js, rq.volume_path, in.labels_file, mesh_files, rep.dump(), &err))
+    fail(kExitFailure, err);
   check_interrupted();
 
   check_interrupted();

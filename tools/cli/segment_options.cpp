@@ -233,6 +233,9 @@ const char* const kSegmentUsageText =
     "                          no image referenced (a note says so)\n"
     "  --view MODE             overlay.png's axial and coronal panels: radiological (default:\n"
     "                          the patient's right on the image's left) or neurological\n"
+    "  --html                  also write report.html: the volume, the labels, the meshes and the\n"
+    "                          report's table in a page that opens from disk (needs the viewer\n"
+    "                          script: make web-dist, or FFSEG_VIEWER_JS=report-viewer.js)\n"
     "  -q, --quiet             no progress line (nor the --sphere-from-label lines)\n"
     "\n"
     "algorithm:\n"
@@ -397,6 +400,8 @@ SegmentRequest parse_segment_request(int argc, char** argv) {
       rq.force = true;
     } else if (tok == "-q" || tok == "--quiet") {
       rq.quiet = true;
+    } else if (tok == "--html") {
+      rq.html = true;
     } else if (tok == "--seed-check") {
       rq.seed_check = true;
     } else if (tok == "--consensus") {

@@ -87,6 +87,7 @@ struct SegmentRequest {
   bool resample_labels = false;    // --resample-labels (label_grid.h)
   bool seed_check = false;         // --seed-check (seed_check.h)
   bool consensus = false;          // --consensus (seed_check.h; implies seed_check)
+  bool html = false;               // --html: report.html beside report.json (report_html.h)
   uint32_t jobs = 0;               // --jobs: the seed check's runs at once; 0: the CPU count
   bool out_nonempty = false;       // --out exists with files in it (and --force replaces them)
   std::string out_parent;

@@ -2,9 +2,9 @@
 // engine runs in dist/worker.js. Bundled by esbuild into dist/viewer.js (an
 // IIFE, so the page needs no module loader and nothing from the network).
 import { Niivue, NVMesh, NVImage, SLICE_TYPE } from "@niivue/niivue";
+import { colourOf } from "./colours.js";
 
 const $ = (id) => document.getElementById(id);
-const COLOURS = [[255, 80, 60], [60, 200, 255], [120, 230, 90], [250, 200, 50], [200, 110, 255], [255, 140, 200]];
 
 const state = {
   volumeName: null,
@@ -66,7 +66,7 @@ function scheduleDraw() {
 
 function setMesh(k, geometry) {
   const s = state.spheres[k];
-  const colour = COLOURS[k % COLOURS.length];
+  const colour = colourOf(k);
   if (s.mesh && s.mesh.pts.length === geometry.vertices.length && s.mesh.tris.length === geometry.triangles.length) {
     s.mesh.pts = geometry.vertices;
     s.mesh.tris = geometry.triangles;
@@ -109,7 +109,7 @@ function refresh() {
     tr.className = k === state.selected ? "selected" : "";
     tr.dataset.index = k;
     const cell = (content) => { const td = document.createElement("td"); td.append(content); tr.append(td); return td; };
-    cell(String(k + 1)).style.color = `rgb(${COLOURS[k % COLOURS.length].join(",")})`;
+    cell(String(k + 1)).style.color = `rgb(${colourOf(k).join(",")})`;
     [0, 1, 2, 3].forEach((a) => {
       const inp = document.createElement("input");
       inp.type = "number";

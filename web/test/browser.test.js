@@ -5,6 +5,7 @@
 // with the tool's, voxel for voxel; the screenshot after segmenting must show
 // the volume and the mesh. Then the page's errors: a file that is no NIfTI,
 // a sphere outside the volume.
+// Last, the tool's report.html opened from disk.
 // Environment: FFSEG_CLI (default build/ffseg), CHROMIUM (default /usr/bin/chromium),
 // FFSEG_SCREENSHOT (also save the screenshot there, e.g. docs/viewer.png).
 "use strict";
@@ -32,7 +33,7 @@ const pageErrors = [];
 test.before(async () => {
   assert.ok(fs.existsSync(path.join(__dirname, "..", "dist", "viewer.js")), "web/dist is not built (make web-dist)");
   execFileSync(CLI, ["segment", `${MRI}/ch2.nii.gz`, "--sphere-from-label", `${MRI}/aal.nii.gz:73`, "--mesh-resolution", "33",
-    "--names", "putamen_L", "--out", path.join(tmp, "cli"), "--force", "--quiet"], { stdio: "pipe" });
+    "--names", "putamen_L", "--out", path.join(tmp, "cli"), "--force", "--quiet", "--html"], { stdio: "pipe" });
   report = JSON.parse(fs.readFileSync(path.join(tmp, "cli", "report.json"), "utf8"));
   native = nifti.read(await nifti.gunzip(fs.readFileSync(path.join(tmp, "cli", "labels.nii.gz"))));
   server = await start(0);
@@ -50,7 +51,7 @@ test.before(async () => {
   // Nothing may come from anywhere but the local server.
   await page.route("**/*", (route) => {
     const u = new URL(route.request().url());
-    if (u.protocol === "blob:" || u.protocol === "data:" || u.hostname === "127.0.0.1") route.continue();
+    if (["blob:", "data:", "file:"].includes(u.protocol) || u.hostname === "127.0.0.1") route.continue();
     else { pageErrors.push(`request outside the page's server: ${u.href}`); route.abort(); }
   });
   await page.goto(`http://127.0.0.1:${server.address().port}/`);
@@ -159,4 +160,33 @@ test("errors show as a message: a sphere outside the volume, a file that is no N
   // the volume already open stays on screen
   assert.strictEqual(await page.evaluate(() => window.ffsegViewer.nv.volumes.length > 0), true);
   assert.deepStrictEqual(pageErrors, []);
+});
+
+test("ffseg segment --html: report.html opens from disk with the volume, the labels, the mesh and the table", async () => {
+  const pageErrorsBefore = pageErrors.length;
+  await page.goto("file://" + path.join(tmp, "cli", "report.html"));
+  await page.waitForFunction(() => document.body.dataset.state, null, { timeout: 120000 });
+  assert.strictEqual(await page.evaluate(() => document.body.dataset.state), "shown");
+  assert.strictEqual(await page.locator("#message").count(), 0);
+  const shown = await page.evaluate(() => ({ volumes: window.ffsegReport.nv.volumes.map((v) => v.name),
+    meshes: window.ffsegReport.nv.meshes.map((m) => m.pts.length / 3) }));
+  assert.deepStrictEqual(shown, { volumes: ["ch2.nii.gz", "labels.nii.gz"], meshes: [report.objects[0].vertices] });
+  const row = await page.locator("table tr").nth(1).textContent();
+  assert.match(row, new RegExp(`putamen_L.*73.*${report.objects[0].voxels}`));
+  assert.deepStrictEqual(pageErrors.slice(pageErrorsBefore), []);
+});
+
+test("ffseg segment --html without the viewer script: a usage error that says how to get it, no output", () => {
+  const out = path.join(tmp, "no-viewer");
+  let failure = null;
+  try {
+    execFileSync(CLI, ["segment", `${MRI}/ch2.nii.gz`, "--sphere", "-20,14,-4,3", "--out", out, "--html"],
+      { stdio: "pipe", env: { ...process.env, FFSEG_VIEWER_JS: path.join(tmp, "missing.js") } });
+  } catch (ex) {
+    failure = ex;
+  }
+  assert.ok(failure, "the tool accepted --html without a viewer script");
+  assert.strictEqual(failure.status, 2);
+  assert.match(failure.stderr.toString(), /report-viewer\.js.*make web-dist/s);
+  assert.strictEqual(fs.existsSync(out), false);
 });
