@@ -188,13 +188,15 @@ async function showVolume(msg) {
 function segment() {
   clearError();
   if (!state.spheres.length) { showError("place a sphere first (click a slice)"); return; }
+  const n = Number($("mesh-n").value);
+  if (!Number.isInteger(n) || n < 2 || n > 1024) { showError("the mesh resolution n must be an integer in 2..1024"); return; }
   state.running = true;
   state.labels = null;
   state.steps = 0;
   if (state.labelImage) { nv.removeVolume(state.labelImage); state.labelImage = null; }
   refresh();
   setStatus("segmenting…");
-  worker.postMessage({ type: "segment", target: $("target") ? $("target").value : "intensity",
+  worker.postMessage({ type: "segment", target: $("target").value, meshResolution: n,
     spheres: state.spheres.map((s) => ({ centre: s.centre, radius: s.radius })) });
 }
 
