@@ -37,7 +37,7 @@
   const STAGE_NAMES = ["search", "flips", "diffusion", "intersection", "assembly",
     "factor", "solve", "features", "guard", "regions"];
   const REPORT_OBJECTS = 16;
-  const OBJECT_NO_BOUNDARY = 1, OBJECT_FILLS_GRID = 2;
+  const OBJECT_NO_BOUNDARY = 1, OBJECT_FILLS_GRID = 2, OBJECT_STALLED = 4;
   // FFSEG_U8 ... FFSEG_F64 by typed-array class.
   const VOXEL_TYPES = new Map([
     ["Uint8Array", 1], ["Int16Array", 2], ["Uint16Array", 3], ["Int32Array", 4],
@@ -91,7 +91,8 @@
     ["vertices_with_target", "u32", REPORT_OBJECTS], ["flips_avoided", "u32", REPORT_OBJECTS],
     ["intersections_avoided", "u32", REPORT_OBJECTS], ["border_vertices", "u32", REPORT_OBJECTS],
     ["stage_us", "i64", STAGE_NAMES.length], ["object_flags", "u32", REPORT_OBJECTS],
-    ["flags_all", "u32"], ["reserved1", "u32"]]);
+    ["flags_all", "u32"], ["reserved1", "u32"], ["guard_held", "u32", REPORT_OBJECTS],
+    ["far_outward", "u32", REPORT_OBJECTS], ["far_inward", "u32", REPORT_OBJECTS]]);
   const LAYOUTS = { ffseg_config: CONFIG, ffseg_params: PARAMS, ffseg_volume: VOLUME, ffseg_step_info: STEP_INFO };
 
   const camel = (s) => s.replace(/_([a-z])/g, (_, c) => c.toUpperCase());
@@ -171,7 +172,7 @@
         this.stepIndex = info.get("step_index");
         this.activeObjects = info.get("active_objects");
         for (const f of ["mean_displacement_mm", "vertices_with_target", "flips_avoided",
-          "intersections_avoided", "border_vertices", "object_flags"])
+          "intersections_avoided", "border_vertices", "object_flags", "guard_held", "far_outward", "far_inward"])
           this[camel(f)] = info.array(f).slice(0, n);
         this.flagsAll = info.get("flags_all");
         this.stageUs = {};
@@ -222,6 +223,7 @@
         this._volBuf = 0; this._volCap = 0;
         this._maskBuf = 0; this._maskCap = 0;
         this._meshBuf = 0; this._meshCounts = null;
+        this._srcBuf = 0; this._srcCap = 0;
         this.lastStep = null;
       }
 
@@ -329,6 +331,30 @@
         const c = finiteVector(centerMm, 3, "centre", call);
         new Float64Array(mod.HEAPU8.buffer, this._small, 3).set(c);
         check(C.ffseg_init_sphere(h, u32(obj, "object", call), this._small, Number(radiusMm)), "ffseg_init_sphere", h);
+        this._meshBuffers(h, obj, call);
+      }
+
+      /* Places object obj's mesh from another cube-sphere mesh (vertices: a
+       * Float32Array of 6 n^2 x, y, z from extractMesh of an engine of any
+       * resolution n), resampled onto this engine's; the grey-level model is
+       * learned from the sphere (centreMm, radiusMm) the source grew from.
+       * Coarse to fine: segment at a small n, then initMesh into a finer engine. */
+      initMesh(obj, centerMm, radiusMm, vertices) {
+        const call = "initMesh", h = this._handle(call);
+        const c = finiteVector(centerMm, 3, "centre", call);
+        if (!(vertices instanceof Float32Array) || vertices.length % 3 !== 0)
+          throw new FfsegError(-1, "vertices must be a Float32Array of x, y, z triples", call);
+        if (vertices.byteLength > this._srcCap) { this._srcBuf = this._alloc(vertices.byteLength, call); this._srcCap = vertices.byteLength; }
+        mod.HEAPU8.set(new Uint8Array(vertices.buffer, vertices.byteOffset, vertices.byteLength), this._srcBuf);
+        new Float64Array(mod.HEAPU8.buffer, this._small, 3).set(c);
+        check(C.ffseg_init_mesh(h, u32(obj, "object", call), this._small, Number(radiusMm), this._srcBuf, vertices.length / 3),
+          "ffseg_init_mesh", h);
+        this._meshBuffers(h, obj, call);
+      }
+
+      // The output buffer for extractMesh, sized by the first placed mesh (every
+      // object of an engine has the same counts).
+      _meshBuffers(h, obj, call) {
         if (!this._meshCounts) {
           const nv = this._small + 24, nt = this._small + 28;
           check(C.ffseg_extract_mesh(h, obj, 0, 0, 0, 0, nv, nt), "ffseg_extract_mesh", h);
@@ -424,6 +450,6 @@
 
   return {
     load, FfsegError, LAYOUTS, PARAM_NAMES: PARAM_NAMES.map(camel), STAGE_NAMES,
-    OK, CONVERGED, DEGENERATE, OBJECT_NO_BOUNDARY, OBJECT_FILLS_GRID, STATUS_CODES,
+    OK, CONVERGED, DEGENERATE, OBJECT_NO_BOUNDARY, OBJECT_FILLS_GRID, OBJECT_STALLED, STATUS_CODES,
   };
 });

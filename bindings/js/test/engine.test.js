@@ -122,3 +122,37 @@ test("two objects segment together and own disjoint bounding regions", () => {
     e.close();
   }
 });
+
+test("coarse to fine: a mesh from an engine at n = 8 placed with initMesh into one at n = 16 goes on from there", () => {
+  const ph = ballPhantom();
+  const coarse = binaryEngine({ meshResolution: 8 });
+  let source;
+  try {
+    coarse.setVolume(ph.voxels, ph.dims, ph.affine);
+    coarse.initSphere(0, ph.centre, 3);
+    for (let s = 0; s < 200 && !coarse.step().atRest; ++s);
+    source = coarse.extractMesh(0).vertices;
+  } finally {
+    coarse.close();
+  }
+  assert.strictEqual(source.length, 6 * 8 * 8 * 3);
+  const fine = binaryEngine({ meshResolution: 16 });
+  try {
+    fine.setVolume(ph.voxels, ph.dims, ph.affine);
+    fine.initSphere(0, ph.centre, 3);
+    let fromSphere = 0;
+    while (!fine.step().atRest && fromSphere < 200) ++fromSphere;
+    assert.throws(() => fine.initMesh(0, ph.centre, 3, source.subarray(3)), (ex) => ex.code === "INVALID_ARGUMENT" && ex.call === "ffseg_init_mesh");
+    fine.initMesh(0, ph.centre, 3, source);
+    assert.strictEqual(fine.extractMesh(0).vertices.length, 6 * 16 * 16 * 3);
+    let r, steps = 0;
+    do { r = fine.step(); ++steps; } while (!r.atRest && steps < 200);
+    assert.strictEqual(r.status, "converged");
+    assert.ok(steps < fromSphere, `${steps} steps from the coarse mesh, ${fromSphere + 1} from the sphere`);
+    assert.deepStrictEqual([r.guardHeld.length, r.farOutward.length, r.farInward.length], [1, 1, 1]);
+    const n = count(fine.rasterize(0));
+    assert.ok(Math.abs(n - ph.inside) < 0.08 * ph.inside, `mask ${n} voxels, ball ${ph.inside}`);
+  } finally {
+    fine.close();
+  }
+});

@@ -21,7 +21,7 @@ test("the trap counts an allocation (so the tests below can fail)", () => {
   assert.strictEqual(calls, 2);
 });
 
-test("the C calls create, set_params, set_volume, init_sphere, step, extract_mesh, rasterize, region_mask and destroy allocate nothing", () => {
+test("the C calls create, set_params, set_volume, init_sphere, step, extract_mesh, init_mesh, rasterize, region_mask and destroy allocate nothing", () => {
   // Everything the caller provides is allocated before the trap is armed:
   // the workspace, the volume, the structs and the output buffers.
   const ph = ballPhantom();
@@ -72,6 +72,10 @@ test("the C calls create, set_params, set_volume, init_sphere, step, extract_mes
     statuses.push(C.ffseg_rasterize(e, k, mask, 0));
     statuses.push(C.ffseg_region_mask(e, k, mask, 0));
   }
+  // object 1 placed again from its own mesh (the last extracted)
+  new Float64Array(mod.HEAPU8.buffer, small + 8, 3).set(centres[1]);
+  statuses.push(C.ffseg_init_mesh(e, 1, small + 8, 2, xyz, dv().getUint32(small + 32, true)));
+  statuses.push(C.ffseg_step(e, info) < 0 ? -1 : 0);
   C.ffseg_destroy(e);
   mod._ffseg_trap_arm(0);
   const calls = mod._ffseg_trap_calls();
