@@ -223,11 +223,11 @@ worker.onmessage = async (ev) => {
   } else if (m.type === "done") {
     state.running = false;
     state.labels = m.labels;
-    state.lastRun = { steps: m.steps, status: m.status, stepMs: m.stepMs, stopped: m.stopped };
+    state.lastRun = { steps: m.steps, status: m.status, stepMs: m.stepMs, stopped: m.stopped, objectFlags: m.objectFlags };
     const total = m.stepMs.reduce((a, b) => a + b, 0);
     setStatus(`${m.stopped ? "stopped" : m.status} after ${m.steps} steps (${(total / Math.max(1, m.steps)).toFixed(0)} ms a step)`);
     $("steps").textContent = `${m.steps} steps, ${m.stopped ? "stopped" : m.status}`;
-    if (m.status === "degenerate") showError("the result is no segmentation (the engine flagged an object: no boundary found, or it fills the grid); move or resize the sphere");
+    if (m.status === "degenerate") showError(flagText(m.objectFlags));
     try {
       const img = await NVImage.loadFromFile({ file: new File([m.labels], "labels.nii"), name: "labels.nii", colormap: "red", opacity: 0.35 });
       state.labelImage = img;
@@ -245,6 +245,19 @@ worker.onmessage = async (ev) => {
     refresh();
   }
 };
+
+// What the engine's object flags (FFSEG_OBJECT_*) say, object by object.
+function flagText(flags) {
+  const why = [];
+  flags.forEach((f, k) => {
+    const said = [];
+    if (f & 1) said.push("no vertex found a boundary: the sphere is not in or near an object of this target");
+    if (f & 2) said.push("it fills most of the volume: it leaked into the background");
+    if (f & 4) said.push("it stalled short of its boundary: a partial result");
+    if (said.length) why.push(`object ${k + 1}: ${said.join("; ")}`);
+  });
+  return `the result is not a full segmentation (move or resize the sphere, or change the target):\n${why.join("\n")}`;
+}
 
 // ---- saving ----------------------------------------------------------------------
 function download(bytes, name, type) {
@@ -332,4 +345,4 @@ nv.attachToCanvas(canvas).then(() => {
 });
 
 // For scripts (make check-browser) and the console: the page's state.
-window.ffsegViewer = { state, nv, addSphere, segment };
+window.ffsegViewer = { state, nv, addSphere, removeSphere, segment };

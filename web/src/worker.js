@@ -72,7 +72,7 @@ async function segment({ spheres, target = "intensity", meshResolution = 33, max
     }
     const file = ffsegNifti.writeLabels(image, labels, "ffseg " + spheres.length + " object(s)");
     postMessage({ type: "done", steps: stepMs.length, stopped: stopRequested, status: report ? report.status : "none",
-      stepMs, labels: file }, [file.buffer]);
+      objectFlags: report ? report.objectFlags : [], stepMs, labels: file }, [file.buffer]);
   } finally {
     busy = false;
     e.close();

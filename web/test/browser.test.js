@@ -152,6 +152,30 @@ test("errors show as a message: a sphere outside the volume, a file that is no N
   assert.match(await page.textContent("#message"), /sphere 2 .*does not meet the volume/);
   assert.strictEqual(await page.evaluate(() => window.ffsegViewer.state.running), false);
 
+  // Two spheres together in empty corners of the scan (all zero) with a binary
+  // target: the engine flags the result (today object 1 stalls short of the
+  // head) and the page names each flagged object and why.
+  await page.evaluate(() => {
+    while (window.ffsegViewer.state.spheres.length) window.ffsegViewer.removeSphere(0);
+    window.ffsegViewer.addSphere([-80, -115, -60], 3);
+    window.ffsegViewer.addSphere([80, 75, 95], 3);
+  });
+  await page.selectOption("#target", "binary");
+  await page.click("#segment");
+  await page.waitForFunction(() => document.body.dataset.state === "done", null, { timeout: SEGMENT_TIMEOUT_MS });
+  const flagged = await page.$eval("#message", (el) => (el.hidden ? "" : el.textContent));
+  const last = await page.evaluate(() => window.ffsegViewer.state.lastRun);
+  assert.strictEqual(last.status, "degenerate");
+  assert.strictEqual(last.objectFlags.length, 2);
+  const WHY = [[1, /no vertex found a boundary/], [2, /fills most of the volume/], [4, /stalled short of its boundary/]];
+  last.objectFlags.forEach((f, k) => {
+    const line = (flagged.split("\n").find((l) => l.startsWith(`object ${k + 1}:`))) || "";
+    if (f === 0) assert.strictEqual(line, "", `object ${k + 1} is not flagged`);
+    for (const [bit, text] of WHY) if (f & bit) assert.match(line, text);
+  });
+  assert.strictEqual(await page.evaluate(() => window.ffsegViewer.state.meshes.length), 2);
+  await page.selectOption("#target", "intensity");
+
   const bad = path.join(tmp, "not-a-volume.nii");
   fs.writeFileSync(bad, "this is no NIfTI file\n".repeat(40));
   await page.setInputFiles("#file", bad);
