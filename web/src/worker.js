@@ -8,6 +8,10 @@ importScripts("ffseg.js", "ffseg-binding.js", "nifti.js");
 
 let lib = null;
 let image = null;
+// The engine and its workspace outlive a run: the next Segment with the same
+// object count, resolution and target reuses them (and the volume buffer).
+let engine = null;
+let engineKey = "";
 let stopRequested = false;
 let busy = false;
 
@@ -36,8 +40,15 @@ async function segment({ spheres, target = "intensity", meshResolution = 33, max
   if (!spheres.length) throw new Error("place a sphere first (click a slice)");
   const L = await library();
   const n = image.dims[0] * image.dims[1] * image.dims[2];
-  // One workspace for the whole run, sized by the engine, allocated here once.
-  const e = new L.Engine({ maxObjects: spheres.length, meshResolution, maxRoiVoxels: Math.min(n, 2 ** 26), targetMode: target });
+  const config = { maxObjects: spheres.length, meshResolution, maxRoiVoxels: Math.min(n, 2 ** 26), targetMode: target };
+  if (JSON.stringify(config) !== engineKey) {
+    if (engine) engine.close();
+    engine = null;
+    engineKey = "";
+    engine = new L.Engine(config);
+    engineKey = JSON.stringify(config);
+  }
+  const e = engine;
   busy = true;
   stopRequested = false;
   try {
@@ -75,7 +86,6 @@ async function segment({ spheres, target = "intensity", meshResolution = 33, max
       objectFlags: report ? report.objectFlags : [], stepMs, labels: file }, [file.buffer]);
   } finally {
     busy = false;
-    e.close();
   }
 }
 
