@@ -1,5 +1,6 @@
 # ffseg front door. CMake is the build; these targets wrap it.
-#   make deps    install what is missing (apt-get; safe to run twice)
+#   make deps    install what is missing (apt-get; the viewer's npm packages by npm ci
+#                from web/package-lock.json; safe to run twice)
 #   make         build/libffseg.a, build/libffseg.so, tools, tests, examples
 #   make test    deps + build + every test (ctest)
 #   make demo    deps + build + the main job
@@ -50,6 +51,7 @@ deps:
 	  $$SUDO apt-get update -qq && \
 	  DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq --no-install-recommends $$missing; \
 	else echo "deps: all present"; fi
+	@$(MAKE) --no-print-directory web/node_modules/.package-lock.json
 
 $(BUILD)/CMakeCache.txt:
 	cmake -S . -B $(BUILD) $(CMAKE_FLAGS)
