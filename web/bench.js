@@ -1,9 +1,10 @@
 // Step time of the WebAssembly build against the native tool on the same
 // machine (BENCHMARKS.md): the left putamen (grey levels, its protocol sphere,
 // n = 33) and the brain mask (ch2bet, binary, sphere 0,-17,19,80, n = 49).
-// Each case: the native tool (report.json's stepping time / steps), the wasm
-// build under Node (SIMD, and scalar when a second build folder is given) and
-// in headless Chromium (web/bench.html: the page's worker, no drawing).
+// Each case: the native tool (report.json's stepping time / steps: its last
+// run, as the tool makes them), the wasm build under Node (the binding's
+// segment(), the same runs; SIMD, and scalar when a second build folder is
+// given) and in headless Chromium (web/bench.html: the page's worker, no drawing).
 // Usage: node web/bench.js [build/ffseg] [build-wasm-scalar]   (after make web-dist)
 "use strict";
 const path = require("path");
@@ -13,7 +14,6 @@ const { execFileSync } = require("child_process");
 const { chromium } = require("playwright-core");
 const ffseg = require("../bindings/js/ffseg.js");
 const nifti = require("../bindings/js/nifti.js");
-const { segmentLikeTool } = require("../bindings/js/test/segment_like_tool.js");
 const { start } = require("./serve.js");
 
 const ROOT = path.join(__dirname, "..");
@@ -55,7 +55,7 @@ async function main() {
         const lib = await ffseg.load({ dir });
         let best = Infinity, run;
         for (let r = 0; r < REPEAT; ++r) {
-          run = segmentLikeTool(lib, img, [sphere], { meshResolution: c.n, targetMode: c.target });
+          run = await lib.segment(img, [sphere], { meshResolution: c.n, targetMode: c.target });
           best = Math.min(best, perStep(run.stepMs));
         }
         wasm[label] = { ms: best, steps: run.steps, voxels: run.masks[0].reduce((a, v) => a + (v !== 0), 0) };

@@ -414,8 +414,100 @@
       }
     }
 
+    /* The whole run as `ffseg segment --mesh-resolution n` makes it (tools/cli:
+     * run_engine), so the same inputs give the tool's masks: n above 12 first
+     * runs at n = 12 to rest, then at n from the spheres; when an object of
+     * that run stalls or ends more than 2% smaller than at n = 12, the run is
+     * made again from the n = 12 meshes (initMesh), and an object that still
+     * stalls where its first run did not is put back on its n = 12 surface.
+     *   volume:  { voxels, dims, affine, sclSlope, sclInter } (nifti.read's)
+     *   spheres: [{ centre: [x, y, z] mm, radius mm }]
+     *   options: meshResolution (33), maxSteps per run (200), targetMode
+     *            ("intensity"), maxRoiVoxels (min(voxels, 2^26)), engines (a Map
+     *            to keep the engines, and so their workspaces, for the next call),
+     *            onStep(report, { run, meshResolution, engine }) (awaited),
+     *            shouldStop() (checked before each step).
+     * Returns { masks, meshes, steps and stepMs (the last run's, as the tool
+     * reports them), runs: [{ meshResolution, from: "spheres" | "first run",
+     * steps, status, stepMs }], last (the last run's last report), stopped }. */
+    async function segment(volume, spheres, { meshResolution = 33, maxSteps = 200, targetMode = "intensity", maxRoiVoxels,
+      engines = new Map(), onStep, shouldStop } = {}) {
+      const FIRST = 12, SHORT_OF_FIRST_RUN = 0.02, STALLED = 4;
+      const count = volume.dims[0] * volume.dims[1] * volume.dims[2];
+      const k = spheres.length;
+      const roi = maxRoiVoxels === undefined ? Math.min(count, 2 ** 26) : maxRoiVoxels;
+      const out = { runs: [], stopped: false };
+      const engineAt = (n) => {
+        const key = JSON.stringify([k, n, roi, targetMode]);
+        if (!engines.has(key)) {
+          for (const [old, e] of engines) if (JSON.parse(old)[1] === n) { e.close(); engines.delete(old); }
+          engines.set(key, new Engine({ maxObjects: k, meshResolution: n, maxRoiVoxels: roi, targetMode }));
+        }
+        return engines.get(key);
+      };
+      const voxelsOf = (e) => spheres.map((_, j) => { let c = 0; const m = e.rasterize(j); for (let i = 0; i < m.length; ++i) c += m[i]; return c; });
+      const stalledOf = (r) => spheres.map((_, j) => ((r && r.objectFlags[j]) & STALLED) !== 0);
+      async function run(n, from) {
+        const e = engineAt(n);
+        e.setParams({ targetMode });
+        e.setVolume(volume.voxels, volume.dims, volume.affine, { rescaleSlope: volume.sclSlope ?? 1, rescaleIntercept: volume.sclInter ?? 0 });
+        spheres.forEach((s, j) => {
+          if (from) {
+            try { e.initMesh(j, s.centre, s.radius, from[j]); return; } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; }
+          }
+          try {
+            e.initSphere(j, s.centre, s.radius);
+          } catch (ex) {
+            if (!(ex instanceof FfsegError)) throw ex;
+            const where = `sphere ${j + 1} (${Array.from(s.centre, (x) => Number(x).toFixed(1)).join(", ")}; r ${s.radius} mm)`;
+            throw new FfsegError(ex.status, `${where}: ${ex.engineMessage}`, ex.call);
+          }
+        });
+        const r = { meshResolution: n, from: from ? "first run" : "spheres", steps: 0, status: "ok", engine: e, last: null, stepMs: [] };
+        while (r.steps < maxSteps) {
+          if (shouldStop && shouldStop()) { out.stopped = true; break; }
+          const t0 = performance.now();
+          r.last = e.step();
+          r.stepMs.push(performance.now() - t0);
+          ++r.steps;
+          if (onStep) await onStep(r.last, { run: out.runs.length, meshResolution: n, engine: e });
+          if (r.last.atRest) break;
+        }
+        r.status = r.last ? r.last.status : "none";
+        out.runs.push(r);
+        return r;
+      }
+      let final;
+      if (meshResolution <= FIRST) final = await run(meshResolution, null);
+      else {
+        const first = await run(FIRST, null);
+        const coarse = spheres.map((_, j) => first.engine.extractMesh(j).vertices);
+        const coarseStalled = stalledOf(first.last), coarseVoxels = voxelsOf(first.engine);
+        final = out.stopped ? first : await run(meshResolution, null);
+        if (!out.stopped) {
+          const fineVoxels = voxelsOf(final.engine), stalled = stalledOf(final.last);
+          if (spheres.some((_, j) => stalled[j] || fineVoxels[j] < (1 - SHORT_OF_FIRST_RUN) * coarseVoxels[j])) {
+            final = await run(meshResolution, coarse);
+            const still = stalledOf(final.last);
+            spheres.forEach((s, j) => {
+              if (!still[j] || coarseStalled[j]) return;
+              try { final.engine.initMesh(j, s.centre, s.radius, coarse[j]); } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; }
+            });
+          }
+        }
+      }
+      out.masks = spheres.map((_, j) => final.engine.rasterize(j));
+      out.meshes = spheres.map((_, j) => final.engine.extractMesh(j));
+      out.steps = final.steps;
+      out.stepMs = final.stepMs;
+      out.last = final.last;
+      out.runs = out.runs.map(({ meshResolution: n, from, steps, status, stepMs }) => ({ meshResolution: n, from, steps, status, stepMs }));
+      return out;
+    }
+
     return {
       Engine,
+      segment,
       module: mod,
       version() {
         const v = C.ffseg_version_number();

@@ -217,16 +217,18 @@ worker.onmessage = async (ev) => {
     showMeshesSoon(m.meshes);
     m.meshes.forEach((g, k) => { state.spheres[k].disp = m.report.meanDisplacementMm[k]; });
     const mean = m.report.meanDisplacementMm;
-    setStatus(`step ${m.report.stepIndex}: mean displacement ${mean.map((d) => d.toFixed(3)).join(", ")} mm (${m.ms.toFixed(0)} ms)`);
-    $("steps").textContent = `step ${m.report.stepIndex}, ${m.report.status}`;
+    setStatus(`step ${m.report.stepIndex} at n = ${m.meshResolution}: mean displacement ${mean.map((d) => d.toFixed(3)).join(", ")} mm`);
+    $("steps").textContent = `run ${m.run + 1} (n = ${m.meshResolution}): step ${m.report.stepIndex}, ${m.report.status}`;
     refresh();
   } else if (m.type === "done") {
     state.running = false;
     state.labels = m.labels;
-    state.lastRun = { steps: m.steps, status: m.status, stepMs: m.stepMs, stopped: m.stopped, objectFlags: m.objectFlags };
+    state.meshes = m.meshes;
+    m.meshes.forEach((g, k) => setMesh(k, g));
+    state.lastRun = { steps: m.steps, status: m.status, stepMs: m.stepMs, stopped: m.stopped, objectFlags: m.objectFlags, runs: m.runs };
     const total = m.stepMs.reduce((a, b) => a + b, 0);
     setStatus(`${m.stopped ? "stopped" : m.status} after ${m.steps} steps (${(total / Math.max(1, m.steps)).toFixed(0)} ms a step)`);
-    $("steps").textContent = `${m.steps} steps, ${m.stopped ? "stopped" : m.status}`;
+    $("steps").textContent = m.runs.map((r) => `n = ${r.meshResolution} from the ${r.from}: ${r.steps} steps`).join("; ");
     if (m.status === "degenerate") showError(flagText(m.objectFlags));
     try {
       const img = await NVImage.loadFromFile({ file: new File([m.labels], "labels.nii"), name: "labels.nii", colormap: "red", opacity: 0.35 });

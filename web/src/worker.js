@@ -8,10 +8,10 @@ importScripts("ffseg.js", "ffseg-binding.js", "nifti.js");
 
 let lib = null;
 let image = null;
-// The engine and its workspace outlive a run: the next Segment with the same
-// object count, resolution and target reuses them (and the volume buffer).
-let engine = null;
-let engineKey = "";
+// The engines (one per mesh resolution a run uses) and their workspaces
+// outlive a run: the next Segment with the same objects count and target
+// reuses them.
+const engines = new Map();
 let stopRequested = false;
 let busy = false;
 
@@ -39,51 +39,32 @@ async function segment({ spheres, target = "intensity", meshResolution = 33, max
   if (!image) throw new Error("open a volume first");
   if (!spheres.length) throw new Error("place a sphere first (click a slice)");
   const L = await library();
-  const n = image.dims[0] * image.dims[1] * image.dims[2];
-  const config = { maxObjects: spheres.length, meshResolution, maxRoiVoxels: Math.min(n, 2 ** 26), targetMode: target };
-  if (JSON.stringify(config) !== engineKey) {
-    if (engine) engine.close();
-    engine = null;
-    engineKey = "";
-    engine = new L.Engine(config);
-    engineKey = JSON.stringify(config);
-  }
-  const e = engine;
   busy = true;
   stopRequested = false;
   try {
-    e.setParams({ targetMode: target });
-    e.setVolume(image.voxels, image.dims, image.affine, { rescaleSlope: image.sclSlope, rescaleIntercept: image.sclInter });
-    spheres.forEach((s, k) => {
-      try {
-        e.initSphere(k, s.centre, s.radius);
-      } catch (ex) {
-        ex.message = `sphere ${k + 1} (${s.centre.map((x) => x.toFixed(1)).join(", ")}; r ${s.radius} mm): ${ex.engineMessage || ex.message}`;
-        throw ex;
-      }
+    const result = await L.segment(image, spheres, {
+      meshResolution, maxSteps, targetMode: target, engines,
+      shouldStop: () => stopRequested,
+      onStep: async (report, { meshResolution: n, engine, run }) => {
+        const meshes = spheres.map((_, k) => engine.extractMesh(k));
+        postMessage({ type: "step", report: { ...report }, meshes, meshResolution: n, run },
+          meshes.flatMap((m) => [m.vertices.buffer, m.triangles.buffer]));
+        await yieldToMessages();
+      },
     });
-    const stepMs = [];
-    let report = null;
-    for (let s = 0; s < maxSteps && !stopRequested; ++s) {
-      const t0 = performance.now();
-      report = e.step();
-      stepMs.push(performance.now() - t0);
-      const meshes = spheres.map((_, k) => e.extractMesh(k));
-      postMessage({ type: "step", report: { ...report }, meshes, ms: stepMs[stepMs.length - 1] },
-        meshes.flatMap((m) => [m.vertices.buffer, m.triangles.buffer]));
-      if (report.atRest) break;
-      await yieldToMessages();
-    }
     // The label map: object k's voxels get label k + 1 (a voxel two meshes
-    // share keeps the lower label, as the regions keep objects apart anyway).
+    // share keeps the lower label).
+    const n = image.dims[0] * image.dims[1] * image.dims[2];
     const labels = new Uint8Array(n);
     for (let k = spheres.length - 1; k >= 0; --k) {
-      const m = e.rasterize(k);
+      const m = result.masks[k];
       for (let i = 0; i < n; ++i) if (m[i]) labels[i] = k + 1;
     }
     const file = ffsegNifti.writeLabels(image, labels, "ffseg " + spheres.length + " object(s)");
-    postMessage({ type: "done", steps: stepMs.length, stopped: stopRequested, status: report ? report.status : "none",
-      objectFlags: report ? report.objectFlags : [], stepMs, labels: file }, [file.buffer]);
+    postMessage({ type: "done", steps: result.steps, stopped: result.stopped, status: result.last ? result.last.status : "none",
+      objectFlags: result.last ? result.last.objectFlags : [], stepMs: result.stepMs,
+      runs: result.runs.map((r) => ({ meshResolution: r.meshResolution, from: r.from, steps: r.steps })),
+      meshes: result.meshes, labels: file }, [file.buffer]);
   } finally {
     busy = false;
   }

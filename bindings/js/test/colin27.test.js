@@ -1,6 +1,8 @@
 // The wasm build against the native tool on Colin27: the left putamen (AAL 73)
 // from its protocol sphere (--sphere-from-label), grey levels, n = 33, must give
-// the same mask voxel for voxel. The tool is FFSEG_CLI (default build/ffseg).
+// the same mask voxel for voxel, by the same runs (the binding's segment()
+// makes them as the tool does: n = 12 first, then n = 33, then coarse to fine
+// when the finer run ends short). The tool is FFSEG_CLI (default build/ffseg).
 "use strict";
 const test = require("node:test");
 const assert = require("node:assert");
@@ -8,7 +10,6 @@ const os = require("os");
 const { execFileSync } = require("child_process");
 const { ROOT, count, load, fs, path } = require("./helpers.js");
 const nifti = require("../nifti.js");
-const { segmentLikeTool } = require("./segment_like_tool.js");
 
 const MRI = "/usr/share/mricron/templates";
 const CLI = process.env.FFSEG_CLI || path.join(ROOT, "build", "ffseg");
@@ -31,10 +32,13 @@ test("the left putamen: the wasm build's mask is the native tool's, voxel for vo
   assert.strictEqual(img.which, report.input.affine_source);
   assert.deepStrictEqual(img.affine, report.input.index_to_world.flat());
   const lib = await load();
-  const run = segmentLikeTool(lib, img, [{ centre: obj.sphere.center_mm, radius: obj.sphere.radius_mm }], { meshResolution: N });
+  const run = await lib.segment(img, [{ centre: obj.sphere.center_mm, radius: obj.sphere.radius_mm }], { meshResolution: N });
   const mask = run.masks[0];
+  t.diagnostic(`runs: ${run.runs.map((r) => `n = ${r.meshResolution} from the ${r.from}, ${r.steps} steps`).join("; ")}`);
 
+  assert.strictEqual(run.runs.length > 2, Boolean(report.config.refined_from_first_run), "made again from the first run's meshes");
   assert.strictEqual(run.steps, report.steps, "steps to rest");
+  assert.strictEqual(run.meshes[0].vertices.length / 3, obj.vertices);
   let differ = 0, first = -1;
   for (let i = 0; i < mask.length; ++i)
     if ((mask[i] !== 0) !== (native.voxels[i] !== 0)) { ++differ; if (first < 0) first = i; }
