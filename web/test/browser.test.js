@@ -46,6 +46,9 @@ test.before(async () => {
       "--disable-component-update", "--disable-sync", "--use-gl=angle", "--use-angle=swiftshader-webgl", "--enable-unsafe-swiftshader"],
   });
   page = context.pages()[0] || (await context.newPage());
+  // A software renderer on a shared 2-core machine: a redraw can hold the
+  // page's thread for seconds.
+  page.setDefaultTimeout(120000);
   page.on("pageerror", (e) => pageErrors.push(`pageerror: ${e.message}`));
   page.on("console", (m) => { if (m.type() === "error") pageErrors.push(`console: ${m.text()}`); });
   // Nothing may come from anywhere but the local server.
@@ -161,6 +164,7 @@ test("errors show as a message: a sphere outside the volume, a file that is no N
     window.ffsegViewer.addSphere([80, 75, 95], 3);
   });
   await page.selectOption("#target", "binary");
+  await page.fill("#mesh-n", "12");  // one run (n above 12 makes up to three)
   await page.click("#segment");
   await page.waitForFunction(() => document.body.dataset.state === "done", null, { timeout: SEGMENT_TIMEOUT_MS });
   const flagged = await page.$eval("#message", (el) => (el.hidden ? "" : el.textContent));
@@ -175,6 +179,7 @@ test("errors show as a message: a sphere outside the volume, a file that is no N
   });
   assert.strictEqual(await page.evaluate(() => window.ffsegViewer.state.meshes.length), 2);
   await page.selectOption("#target", "intensity");
+  await page.fill("#mesh-n", "33");
 
   const bad = path.join(tmp, "not-a-volume.nii");
   fs.writeFileSync(bad, "this is no NIfTI file\n".repeat(40));
