@@ -18,7 +18,8 @@ namespace capi {
 struct Guard {
   // Bit w of map: word w of the Engine object held an address inside the
   // workspace when the engine was created (its layout table).
-  static constexpr size_t kMapWords = (sizeof(Engine) / 8 + 63) / 64;
+  static constexpr size_t kEngineWords = sizeof(Engine) / sizeof(uintptr_t);
+  static constexpr size_t kMapWords = (kEngineWords + 63) / 64;
   uint64_t magic;         // kGuardMagic while the engine is live
   uint64_t engine_bytes;  // the engine's part of the workspace
   uint64_t layout;        // hash of the layout table's words

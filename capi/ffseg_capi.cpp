@@ -82,10 +82,13 @@ uint64_t mix(uint64_t h, uint64_t v) {  // splitmix64 step over h ^ v
   return z ^ (z >> 31);
 }
 
+// Word w of the Engine object, words pointer-sized: an address is one word
+// on every target (8-byte words glued a wasm32 pointer to its neighbour field,
+// whose changes then read as a damaged layout table).
 uint64_t word_at(const void* base, size_t w) {
-  uint64_t v;
-  std::memcpy(&v, static_cast<const unsigned char*>(base) + 8 * w, 8);
-  return v;
+  uintptr_t v;
+  std::memcpy(&v, static_cast<const unsigned char*>(base) + sizeof v * w, sizeof v);
+  return uint64_t(v);
 }
 
 // A sum, not a chain: the engine swaps ping-pong buffers (two words of the
@@ -117,7 +120,7 @@ void seal(Guard* g, const Engine* en, size_t engine_bytes) {
   const uintptr_t lo = reinterpret_cast<uintptr_t>(g);
   const uintptr_t hi = lo + kGuardBytes + engine_bytes;
   std::memset(g->map, 0, sizeof g->map);
-  for (size_t w = 0; w < sizeof(Engine) / 8; ++w) {
+  for (size_t w = 0; w < Guard::kEngineWords; ++w) {
     const uint64_t v = word_at(en, w);
     if (v >= lo && v < hi) g->map[w / 64] |= uint64_t(1) << (w % 64);
   }
