@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <new>
 
 #include "cubesphere_resample.h"
@@ -177,7 +176,19 @@ Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
   double* sphere = scratch_.tmp;
   for (uint32_t v = 0; v < mesh_.nv; ++v)
     for (int d = 0; d < 3; ++d) sphere[3 * v + d] = c[d] + r * mesh_.unit[3 * v + d];
-  return place("init_sphere", object, c, r, sphere);
+  // Several objects never overlap (the step guard keeps them apart from
+  // here on): a sphere that crosses or encloses a placed object, or lies
+  // inside one, is refused.
+  const uint32_t hit = overlapped_object(object, sphere);
+  if (hit < cfg_.max_objects) {
+    std::snprintf(msg_, kMsgLen,
+                  "init_sphere: the sphere (%g, %g, %g) r = %g mm overlaps object %u (objects of one engine never "
+                  "overlap): place it apart",
+                  c[0], c[1], c[2], r, hit);
+    return Err::invalid_argument;
+  }
+  place(object, c, r, sphere);
+  return Err::ok;
 }
 
 Err Engine::init_mesh(uint32_t object, const double c[3], double r, const float* xyz, uint32_t n_src) {
@@ -205,7 +216,13 @@ Err Engine::init_mesh(uint32_t object, const double c[3], double r, const float*
                   n_src, mesh_.n);
     return Err::invalid_argument;
   }
-  return place("init_mesh", object, c, r, x);
+  const uint32_t hit = overlapped_object(object, x);
+  if (hit < cfg_.max_objects) {
+    std::snprintf(msg_, kMsgLen, "init_mesh: the mesh overlaps object %u (objects of one engine never overlap)", hit);
+    return Err::invalid_argument;
+  }
+  place(object, c, r, x);
+  return Err::ok;
 }
 
 Err Engine::check_seed(const char* call, uint32_t object, const double c[3], double r) {
@@ -231,38 +248,25 @@ Err Engine::check_seed(const char* call, uint32_t object, const double c[3], dou
   return Err::ok;
 }
 
-Err Engine::place(const char* call, uint32_t object, const double c[3], double r, const double* x) {
-  // Several objects never overlap (the step guard keeps them apart from
-  // here on): a mesh that crosses or encloses a placed object, or lies
-  // inside one, is refused.
-  if (cfg_.max_objects > 1) {
-    uint32_t others = 0;
-    for (uint32_t j = 0; j < cfg_.max_objects; ++j)
-      if (j != object && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
-    if (others > 0) {
-      build_obstacles(mesh_, scratch_.obstacles, others, scratch_.contacts);
-      if (mark_contacts(mesh_, x, scratch_.contacts, nullptr) > 0) {
-        uint32_t hit = cfg_.max_objects;  // the first obstacle met, else the first placed one
-        for (uint32_t k = 0, j = 0; j < cfg_.max_objects; ++j) {
-          if (j == object || !objects_[j].placed) continue;
-          if (hit == cfg_.max_objects) hit = j;
-          if (scratch_.contacts.crossed[k++]) {
-            hit = j;
-            break;
-          }
-        }
-        if (std::strcmp(call, "init_sphere") == 0)
-          std::snprintf(msg_, kMsgLen,
-                        "init_sphere: the sphere (%g, %g, %g) r = %g mm overlaps object %u (objects of one engine "
-                        "never overlap): place it apart",
-                        c[0], c[1], c[2], r, hit);
-        else
-          std::snprintf(msg_, kMsgLen, "%s: the mesh overlaps object %u (objects of one engine never overlap)",
-                        call, hit);
-        return Err::invalid_argument;
-      }
-    }
+uint32_t Engine::overlapped_object(uint32_t object, const double* x) {
+  const uint32_t none = cfg_.max_objects;
+  if (cfg_.max_objects < 2) return none;
+  uint32_t others = 0;
+  for (uint32_t j = 0; j < cfg_.max_objects; ++j)
+    if (j != object && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
+  if (others == 0) return none;
+  build_obstacles(mesh_, scratch_.obstacles, others, scratch_.contacts);
+  if (mark_contacts(mesh_, x, scratch_.contacts, nullptr) == 0) return none;
+  uint32_t hit = none;  // the first obstacle met, else the first placed one
+  for (uint32_t k = 0, j = 0; j < cfg_.max_objects; ++j) {
+    if (j == object || !objects_[j].placed) continue;
+    if (hit == none) hit = j;
+    if (scratch_.contacts.crossed[k++]) return j;
   }
+  return hit;
+}
+
+void Engine::place(uint32_t object, const double c[3], double r, const double* x) {
   Object& o = objects_[object];
   for (size_t q = 0; q < size_t(3) * mesh_.nv; ++q) o.x[q] = x[q];
   for (int d = 0; d < 3; ++d) o.center[d] = c[d];
@@ -274,7 +278,6 @@ Err Engine::place(const char* call, uint32_t object, const double c[3], double r
   o.roi.invalidate();
   o.model.reset();
   if (o.region) o.region->valid = false;
-  return Err::ok;
 }
 
 Err Engine::extract_mesh(uint32_t object, float* xyz, size_t xyz_cap, uint32_t* tris, size_t tri_cap,

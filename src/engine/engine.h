@@ -67,11 +67,12 @@ class Engine {
   Engine() = default;
   void layout(Arena& a);
   Err check_object(uint32_t object, bool must_be_placed) const;
-  // init_sphere's and init_mesh's checks of the object and its sphere, and
-  // their placement of positions x (3 nv; refused when they touch another
-  // object). call names the caller in messages.
+  // init_sphere's and init_mesh's checks of the object and its sphere (call
+  // names the caller in messages), the object a mesh at positions x (3 nv)
+  // would overlap (max_objects: none), and the placement of x.
   Err check_seed(const char* call, uint32_t object, const double c[3], double r);
-  Err place(const char* call, uint32_t object, const double c[3], double r, const double* x);
+  uint32_t overlapped_object(uint32_t object, const double* x);
+  void place(uint32_t object, const double c[3], double r, const double* x);
   ConvergenceRule rule() const;
   Err update_regions();
   friend struct EngineTesting;
