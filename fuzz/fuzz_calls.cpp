@@ -1,6 +1,7 @@
 // libFuzzer target "calls": a random sequence of C API calls on one engine.
 //
 // Input: a config block (max_objects, mesh_resolution, max_roi_voxels,
+// max_region_voxels (0.6.0: regions on cells of several voxels, or refused),
 // target_mode (binary-only or not), reserved fields, and the workspace size
 // and alignment offered to ffseg_create, all allowed to be wrong), then one
 // operation per byte group until the input ends: set_params with extreme or
@@ -184,11 +185,21 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const uint8_t cflags = in.take<uint8_t>();
   cfg.max_objects = (cflags & 1) ? pick_u32(in) : 1 + in.take<uint8_t>() % 4;
   cfg.mesh_resolution = (cflags & 2) ? pick_u32(in) : 2 + in.take<uint8_t>() % 3;
+  // max_region_voxels out of range, with nothing else in the config that
+  // workspace_size refuses first or that hides the field.
+  bool region_refused = false;
   if (cflags & 4) {
     cfg.max_roi_voxels = in.take<int64_t>();
   } else {
-    const uint8_t roi = in.take<uint8_t>();  // bit7: a binary-only engine
+    // bit7: a binary-only engine; (roi & 127) % 12 the crop budget's power of
+    // two; (roi & 127) / 12 the region budget (0.6.0), mostly the default 0
+    // (= max_roi_voxels), else so small that two objects' regions are marched
+    // on cells (or refused as ROI_TOO_LARGE at the step), or out of range.
+    const uint8_t roi = in.take<uint8_t>();
     cfg.max_roi_voxels = int64_t(1) << (8 + (roi & 127) % 12);
+    static const int64_t regions[] = {0, 0, 0, 0, 0, 1, 64, 256, 4096, -1, (int64_t(1) << 40) + 1};
+    cfg.max_region_voxels = regions[(roi & 127) / 12];
+    region_refused = cfg.max_region_voxels < 0 || cfg.max_region_voxels > (int64_t(1) << 40);
     if (roi & 128) cfg.target_mode = FFSEG_TARGET_BINARY;
   }
   if (cflags & 8) cfg.struct_size = in.take<uint8_t>();
@@ -204,6 +215,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   size_t need = 0;
   const ffseg_status ws_st = ffseg_workspace_size(&cfg, &need);
   check_status(ws_st, "workspace_size");
+  if (region_refused && !(cflags & (1 | 2 | 8 | 16)) &&
+      (ws_st != FFSEG_ERR_INVALID_ARGUMENT || !std::strstr(ffseg_last_error(nullptr), "max_region_voxels")))
+    finding("workspace_size: max_region_voxels out of range not refused by name", ws_st);
   // An exact block (ASan poisons everything around it, fuzz_workspace.h).
   static ffseg_fuzz::ReusedBlock ws;
   ffseg_engine* e = reinterpret_cast<ffseg_engine*>(&ws);  // must be overwritten

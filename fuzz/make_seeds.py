@@ -180,6 +180,11 @@ def calls_seeds():
     s['many_objects'] = calls_seed([1, 4, 6, 8, 0], [set_volume(kind=1)] +
                                    [init_sphere(obj=o, dx=4 * o, r=40 + 4 * o) for o in range(4)] +
                                    [step(), step(), extract(obj=3), rasterize(obj=2)])
+    # Two objects at n = 2 whose bounding regions must be marched on cells:
+    # roi byte 7 * 12 + 8 (crops 2^16, regions 256 voxels, 0.6.0).
+    s['regions_on_cells'] = calls_seed([0, 1, 0, 7 * 12 + 8, 0],
+                                       [set_volume(), init_sphere(dx=-64, r=16), init_sphere(obj=1, dx=64, r=16),
+                                        step(), rasterize(mode=4), rasterize(obj=1, mode=4 | 2)])
     return s
 
 

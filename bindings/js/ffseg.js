@@ -74,7 +74,8 @@
     return out;
   }
   const CONFIG = layout([["struct_size", "u32"], ["max_objects", "u32"], ["mesh_resolution", "u32"],
-    ["reserved0", "u32"], ["max_roi_voxels", "i64"], ["target_mode", "u32"], ["reserved1", "u32"]]);
+    ["reserved0", "u32"], ["max_roi_voxels", "i64"], ["target_mode", "u32"], ["reserved1", "u32"],
+    ["max_region_voxels", "i64"]]);  // since 0.6.0
   const PARAMS = layout([["struct_size", "u32"], ["target_mode", "u32"], ["lambda_laplacian", "f64"],
     ["lambda_position", "f64"], ["lambda_uniform", "f64"], ["step_size", "f64"], ["flip_tau", "f64"],
     ["search_range_mm", "f64"], ["search_step_mm", "f64"], ["convergence_mm", "f64"],
@@ -182,9 +183,13 @@
 
     class Engine {
       /* maxObjects 1..64, meshResolution n (6 n^2 vertices per mesh),
-       * maxRoiVoxels (the library's default when omitted), targetMode
-       * "intensity" (default: both modes allowed) or "binary" (smaller workspace). */
-      constructor({ maxObjects = 1, meshResolution = 33, maxRoiVoxels, targetMode = "intensity" } = {}) {
+       * maxRoiVoxels (the library's default when omitted), maxRegionVoxels
+       * (since 0.6.0, several objects: the voxels one bounding region is marched
+       * on, 0..2^40; omitted or 0: maxRoiVoxels; a larger region's box is
+       * marched on cells of several voxels, ffseg.h's max_region_voxels),
+       * targetMode "intensity" (default: both modes allowed) or "binary"
+       * (smaller workspace). */
+      constructor({ maxObjects = 1, meshResolution = 33, maxRoiVoxels, maxRegionVoxels, targetMode = "intensity" } = {}) {
         const call = "Engine";
         this._mod = mod;
         this._blocks = [];
@@ -206,6 +211,10 @@
           if (!Number.isSafeInteger(maxRoiVoxels)) throw new FfsegError(-1, `maxRoiVoxels: ${maxRoiVoxels} is not an integer`, call);
           cfg.set("max_roi_voxels", maxRoiVoxels);
         }
+        if (maxRegionVoxels !== undefined) {
+          if (!Number.isSafeInteger(maxRegionVoxels)) throw new FfsegError(-1, `maxRegionVoxels: ${maxRegionVoxels} is not an integer`, call);
+          cfg.set("max_region_voxels", maxRegionVoxels);
+        }
         if (!(targetMode in TARGET_MODES))
           throw new FfsegError(-1, `targetMode: expected "binary" or "intensity", got ${JSON.stringify(targetMode)}`, call);
         cfg.set("target_mode", TARGET_MODES[targetMode]);
@@ -216,7 +225,8 @@
         this._workspace = raw + ((64 - (raw % 64)) % 64);
         check(C.ffseg_create(cfg.ptr, this._workspace, this.workspaceBytes, sizeAt), "ffseg_create");
         this._e = new DataView(mod.HEAPU8.buffer).getUint32(sizeAt, true);
-        this.config = { maxObjects, meshResolution, maxRoiVoxels: cfg.get("max_roi_voxels"), targetMode };
+        this.config = { maxObjects, meshResolution, maxRoiVoxels: cfg.get("max_roi_voxels"),
+          maxRegionVoxels: cfg.get("max_region_voxels"), targetMode };
         C.ffseg_params_init_default(this._params.ptr);
         this._params.set("struct_size", PARAMS.size);
         this._dims = null;
@@ -423,7 +433,8 @@
      *   volume:  { voxels, dims, affine, sclSlope, sclInter } (nifti.read's)
      *   spheres: [{ centre: [x, y, z] mm, radius mm }]
      *   options: meshResolution (33), maxSteps per run (200), targetMode
-     *            ("intensity"), maxRoiVoxels (min(voxels, 2^26)), engines (a Map
+     *            ("intensity"), maxRoiVoxels (min(voxels, 2^26)), maxRegionVoxels
+     *            (the library's default, maxRoiVoxels), engines (a Map
      *            to keep the engines, and so their workspaces, for the next call),
      *            onStep(report, { run, meshResolution, engine }) (awaited),
      *            shouldStop() (checked before each step).
@@ -431,17 +442,17 @@
      * reports them), runs: [{ meshResolution, from: "spheres" | "first run",
      * steps, status, stepMs }], last (the last run's last report), stopped }. */
     async function segment(volume, spheres, { meshResolution = 33, maxSteps = 200, targetMode = "intensity", maxRoiVoxels,
-      engines = new Map(), onStep, shouldStop } = {}) {
+      maxRegionVoxels, engines = new Map(), onStep, shouldStop } = {}) {
       const FIRST = 12, SHORT_OF_FIRST_RUN = 0.02, STALLED = 4;
       const count = volume.dims[0] * volume.dims[1] * volume.dims[2];
       const k = spheres.length;
       const roi = maxRoiVoxels === undefined ? Math.min(count, 2 ** 26) : maxRoiVoxels;
       const out = { runs: [], stopped: false };
       const engineAt = (n) => {
-        const key = JSON.stringify([k, n, roi, targetMode]);
+        const key = JSON.stringify([k, n, roi, maxRegionVoxels ?? null, targetMode]);
         if (!engines.has(key)) {
           for (const [old, e] of engines) if (JSON.parse(old)[1] === n) { e.close(); engines.delete(old); }
-          engines.set(key, new Engine({ maxObjects: k, meshResolution: n, maxRoiVoxels: roi, targetMode }));
+          engines.set(key, new Engine({ maxObjects: k, meshResolution: n, maxRoiVoxels: roi, maxRegionVoxels, targetMode }));
         }
         return engines.get(key);
       };

@@ -367,6 +367,18 @@ static class Tests {
   static void TwoObjectsGetDisjointRegions() {
     TwoObjectsGetDisjointRegions(0);
     TwoObjectsGetDisjointRegions(256);
+    // The library reads MaxRegionVoxels: regions of 256 voxels take less
+    // workspace than the default (MaxRoiVoxels), one out of range is refused by name.
+    Config c = Small(6);
+    c.MaxObjects = 2;
+    long full;
+    using (var e = new Engine(c)) full = e.WorkspaceBytes;
+    c.MaxRegionVoxels = 256;
+    using (var e = new Engine(c))
+      Assert(e.WorkspaceBytes < full, "MaxRegionVoxels 256: " + e.WorkspaceBytes + " >= " + full + " bytes");
+    c.MaxRegionVoxels = -1;
+    FfsegException ex = Throws(() => new Engine(c));
+    Assert(ex.Status == Status.ErrInvalidArgument && ex.Detail.Contains("max_region_voxels"), ex.Message);
   }
 
   static void TwoObjectsGetDisjointRegions(long maxRegion) {

@@ -123,6 +123,47 @@ test("two objects segment together and own disjoint bounding regions", () => {
   }
 });
 
+// ffseg_config.max_region_voxels (0.6.0): the library reads it (a smaller
+// workspace, a refusal naming it), and two objects in a bar of ones get
+// disjoint regions on voxels and on cells of 3 voxels when 256 cannot hold a
+// region's box (the Rust and C# bindings' test).
+test("maxRegionVoxels sizes the bounding regions: smaller workspace, regions on cells", () => {
+  const fine = new lib.Engine({ maxObjects: 2, meshResolution: 6, maxRoiVoxels: 1 << 16, targetMode: "binary" });
+  const coarse = new lib.Engine({ maxObjects: 2, meshResolution: 6, maxRoiVoxels: 1 << 16, maxRegionVoxels: 256, targetMode: "binary" });
+  try {
+    assert.strictEqual(fine.config.maxRegionVoxels, 0);
+    assert.strictEqual(coarse.config.maxRegionVoxels, 256);
+    assert.ok(coarse.workspaceBytes < fine.workspaceBytes, `${coarse.workspaceBytes} >= ${fine.workspaceBytes} bytes`);
+  } finally {
+    fine.close();
+    coarse.close();
+  }
+  for (const bad of [-1, 2 ** 40 + 1])
+    assert.throws(() => new lib.Engine({ maxObjects: 2, maxRegionVoxels: bad }),
+      (ex) => ex.code === "INVALID_ARGUMENT" && /max_region_voxels/.test(ex.message));
+  assert.throws(() => new lib.Engine({ maxRegionVoxels: 1.5 }), (ex) => ex.code === "INVALID_ARGUMENT" && /maxRegionVoxels/.test(ex.message));
+
+  const dims = [40, 12, 12];
+  const bar = new Uint8Array(dims[0] * dims[1] * dims[2]);
+  for (let k = 3; k < 9; ++k) for (let j = 3; j < 9; ++j) for (let i = 4; i < 36; ++i) bar[i + dims[0] * (j + dims[1] * k)] = 1;
+  for (const maxRegionVoxels of [0, 256]) {
+    const e = new lib.Engine({ maxObjects: 2, meshResolution: 6, maxRegionVoxels });
+    try {
+      e.setParams({ targetMode: "binary" });
+      e.setVolume(bar, dims, [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]);
+      e.initSphere(0, [10, 5.5, 5.5], 2);
+      e.initSphere(1, [29, 5.5, 5.5], 2);
+      assert.throws(() => e.regionMask(0), (ex) => ex.code === "MISUSE");
+      for (let s = 0; s < 3; ++s) e.step();
+      const g0 = e.regionMask(0), g1 = e.regionMask(1);
+      assert.ok(count(g0) > 100 && count(g1) > 100, `maxRegionVoxels ${maxRegionVoxels}: regions of ${count(g0)} and ${count(g1)} voxels`);
+      for (let i = 0; i < g0.length; ++i) assert.ok(!(g0[i] && g1[i]), `maxRegionVoxels ${maxRegionVoxels}: regions overlap`);
+    } finally {
+      e.close();
+    }
+  }
+});
+
 test("coarse to fine: a mesh from an engine at n = 8 placed with initMesh into one at n = 16 goes on from there", () => {
   const ph = ballPhantom();
   const coarse = binaryEngine({ meshResolution: 8 });

@@ -191,6 +191,18 @@ fn two_objects_in_a_bar_get_disjoint_bounding_regions() {
     for &max_region in &[0i64, 256] {
         disjoint_regions(max_region);
     }
+    // The library reads the field: regions of 256 voxels take less workspace
+    // than the default (max_roi_voxels), one out of range is refused by name.
+    let mut cfg = small_config(6);
+    cfg.max_objects = 2;
+    let full = Workspace::new(&cfg).unwrap().len();
+    cfg.max_region_voxels = 256;
+    let small = Workspace::new(&cfg).unwrap().len();
+    assert!(small < full, "max_region_voxels 256: {} >= {} bytes", small, full);
+    cfg.max_region_voxels = -1;
+    let err = Workspace::new(&cfg).err().expect("max_region_voxels = -1 is refused");
+    assert_eq!(err.status(), sys::FFSEG_ERR_INVALID_ARGUMENT);
+    assert!(err.message().contains("max_region_voxels"), "message: {}", err.message());
 }
 
 fn disjoint_regions(max_region: i64) {
