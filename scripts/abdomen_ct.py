@@ -76,13 +76,15 @@ def resample(factor, work):
     return out
 
 
-def segment(cli, data_dir, organ, name, out, resolution):
+def segment(cli, data_dir, organ, name, out, resolution, params=()):
     """One organ alone from its protocol sphere: the report's figures."""
     ct, lab = os.path.join(data_dir, "ct.nii.gz"), os.path.join(data_dir, "labels.nii.gz")
     cmd = [cli, "segment", ct, "--sphere-from-label", f"{lab}:{organ}", "--truth", lab,
            "--names", name.replace(" ", "_"), "--out", out, "--force", "--quiet"]
     if resolution != "auto":
         cmd += ["--mesh-resolution", str(resolution)]
+    for p in params:
+        cmd += ["--param", p]
     t0 = time.time()
     r = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.time() - t0
@@ -97,7 +99,7 @@ def segment(cli, data_dir, organ, name, out, resolution):
             "n": rep["config"]["mesh_resolution"], "stalled": o.get("stalled", False)}
 
 
-def segment_together(cli, data_dir, organs, out):
+def segment_together(cli, data_dir, organs, out, params=()):
     """Every organ from its protocol sphere in one engine (thesis chapter 6):
     the report's figures per organ, and the shared voxels."""
     ct, lab = os.path.join(data_dir, "ct.nii.gz"), os.path.join(data_dir, "labels.nii.gz")
@@ -105,6 +107,8 @@ def segment_together(cli, data_dir, organs, out):
            "--names", ",".join(n.replace(" ", "_") for _, n, _ in organs)]
     for organ, _, _ in organs:
         cmd += ["--sphere-from-label", f"{lab}:{organ}"]
+    for p in params:
+        cmd += ["--param", p]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode not in (0, 6):
         sys.exit(f"together: exit {r.returncode}: {r.stderr.strip()[-400:]}")
@@ -124,6 +128,8 @@ def main():
     ap.add_argument("--resolution", default="auto")
     ap.add_argument("--cli", default=os.path.join(ROOT, "build", "ffseg"))
     ap.add_argument("--work", default="/tmp/ffseg-abdomen-ct")
+    ap.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                    help="an engine parameter for every run (repeatable; ffseg segment --param)")
     ap.add_argument("--together", action="store_true",
                     help="also every organ in one engine (chapter 6), against each alone")
     args = ap.parse_args()
@@ -143,7 +149,7 @@ def main():
         per_set = {"choosing": [], "reporting": []}
         for organ, name, which in organs:
             out = os.path.join(args.work, f"out_{sp}mm_{organ}")
-            r = segment(args.cli, data_dir, organ, name, out, args.resolution)
+            r = segment(args.cli, data_dir, organ, name, out, args.resolution, args.param)
             if "error" in r:
                 print(f"| {name} ({organ}) | {which} | {r['error']} |")
                 continue
@@ -158,7 +164,7 @@ def main():
         if both:
             print(f"mean Dice, both sets: {np.mean(both):.3f} over {len(both)}")
         if args.together:
-            res, rep = segment_together(args.cli, data_dir, organs, os.path.join(args.work, f"together_{sp}mm"))
+            res, rep = segment_together(args.cli, data_dir, organs, os.path.join(args.work, f"together_{sp}mm"), args.param)
             print(f"\ntogether in one engine: {rep['steps']} steps, {rep['time_ms']['stepping'] / 1000:.2f} s of "
                   f"stepping ({rep['time_ms']['stages']['regions'] / 1000:.2f} s of it bounding regions), "
                   f"{rep.get('shared_voxels', 0)} shared voxels")
