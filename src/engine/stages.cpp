@@ -7,6 +7,7 @@
 #include "binary_search.h"
 #include "diffusion.h"
 #include "flips.h"
+#include "grid_box.h"
 #include "fold_prevention.h"
 #include "intensity_search.h"
 #include "laplacian_system.h"
@@ -237,9 +238,9 @@ void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, O
   st.folds_avoided = prevent_folds(m, x, st.disp, st.has, p.flip_tau, p.step_size, s.folds);
 }
 
-Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x, ObjectStep& st, StepScratch& s,
-                const double* const* others, uint32_t other_count, uint64_t stage_us[kStageCount], char* msg,
-                size_t msg_len) {
+Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, double* x,
+                ObjectStep& st, StepScratch& s, const double* const* others, uint32_t other_count,
+                uint64_t stage_us[kStageCount], char* msg, size_t msg_len) {
   const uint32_t nv = m.nv;
   uint64_t t0 = now_us(), t1;
   auto lap = [&](int stage) {
@@ -287,6 +288,18 @@ Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x
     if (!std::isfinite(s.rhs[q])) {
       std::snprintf(msg, msg_len, "step: the solve produced non-finite positions; mesh unchanged");
       return Err::numeric;
+    }
+  // The mesh ends at the scan's box (grid_box.h): a solve that carries a
+  // vertex beyond it (the smoothness terms round a cap pressed on a face)
+  // puts it back on the face, before the guard, which then checks the
+  // update as it will be. The guard's held vertices move along the segment
+  // from their old positions, inside the box, to these: the box being
+  // convex, they stay inside too.
+  if (grid)
+    for (uint32_t v = 0; v < nv; ++v) {
+      double w[3] = {s.rhs[v], s.rhs[size_t(nv) + v], s.rhs[size_t(2) * nv + v]};
+      if (clamp_to_grid(*grid, w))
+        for (int a = 0; a < 3; ++a) s.rhs[size_t(a) * nv + v] = w[a];
     }
   // Several objects: the others' meshes are obstacles the update may not
   // touch (the hard no-overlap guarantee); the guard holds back the
