@@ -181,9 +181,11 @@ Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
   // starts as its part inside: flattened onto the box's faces. With its
   // centre inside and over one face, the part beyond is less than a
   // hemisphere, a graph over the face, and stays free of crossings; a centre
-  // beyond the face, or a sphere pressed into an edge or corner of the box,
-  // folds vertices onto one another, and is refused.
-  if (clamp_into_grid(sphere) > 0 && mark_intersections(mesh_, sphere, scratch_.triangles, nullptr) > 0) {
+  // beyond a face folds the larger part onto the face (flat, so the
+  // crossing test need not see it), and a sphere pressed into an edge or
+  // corner of the box can fold too: both are refused.
+  if (clamp_into_grid(sphere) > 0 &&
+      (!in_grid(vol_, c) || mark_intersections(mesh_, sphere, scratch_.triangles, nullptr) > 0)) {
     std::snprintf(msg_, kMsgLen,
                   "init_sphere: the sphere (%g, %g, %g) r = %g mm reaches so far beyond the grid that its part "
                   "inside, flattened onto the grid's faces, would cross itself (its centre beyond a face, or "

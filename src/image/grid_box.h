@@ -28,6 +28,12 @@ class GridBox {
     for (int a = 0; a < 3; ++a) hi_[a] = double(dims[a]) - 0.5;
   }
 
+  bool contains(const double p[3]) const {
+    for (int a = 0; a < 3; ++a)
+      if (!(p[a] >= kLo && p[a] <= hi_[a])) return false;
+    return true;
+  }
+
   // Moves index-space point p onto the box (per axis); true when it moved.
   // A NaN coordinate is left as it is (the callers test finiteness).
   bool clamp(double p[3]) const {
@@ -57,6 +63,13 @@ inline bool clamp_to_grid(const VolumeView& vol, double w[3]) {
   if (!GridBox(vol.dims()).clamp(p)) return false;
   vol.index_to_world(p, w);
   return true;
+}
+
+// True when world point w (mm) lies in vol's grid box.
+inline bool in_grid(const VolumeView& vol, const double w[3]) {
+  double p[3];
+  vol.world_to_index(w, p);
+  return GridBox(vol.dims()).contains(p);
 }
 
 }  // namespace ffseg
