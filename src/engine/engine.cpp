@@ -7,7 +7,6 @@
 #include <new>
 
 #include "cubesphere_resample.h"
-#include "grid_box.h"
 #include "mesh_contact.h"
 #include "mesh_intersection.h"
 #include "rasterize.h"
@@ -177,22 +176,6 @@ Err Engine::init_sphere(uint32_t object, const double c[3], double r) {
   double* sphere = scratch_.tmp;
   for (uint32_t v = 0; v < mesh_.nv; ++v)
     for (int d = 0; d < 3; ++d) sphere[3 * v + d] = c[d] + r * mesh_.unit[3 * v + d];
-  // A sphere that reaches beyond the grid (a seed at a partial scan's edge)
-  // starts as its part inside: flattened onto the box's faces. With its
-  // centre inside and over one face, the part beyond is less than a
-  // hemisphere, a graph over the face, and stays free of crossings; a centre
-  // beyond a face folds the larger part onto the face (flat, so the
-  // crossing test need not see it), and a sphere pressed into an edge or
-  // corner of the box can fold too: both are refused.
-  if (clamp_into_grid(sphere) > 0 &&
-      (!in_grid(vol_, c) || mark_intersections(mesh_, sphere, scratch_.triangles, nullptr) > 0)) {
-    std::snprintf(msg_, kMsgLen,
-                  "init_sphere: the sphere (%g, %g, %g) r = %g mm reaches so far beyond the grid that its part "
-                  "inside, flattened onto the grid's faces, would cross itself (its centre beyond a face, or "
-                  "pressed into an edge or corner of the grid): place it further inside",
-                  c[0], c[1], c[2], r);
-    return Err::sphere_outside;
-  }
   // Several objects never overlap (the step guard keeps them apart from
   // here on): a sphere that crosses or encloses a placed object, or lies
   // inside one, is refused.
@@ -224,7 +207,6 @@ Err Engine::init_mesh(uint32_t object, const double c[3], double r, const float*
     }
   double* x = scratch_.tmp;
   resample_cubesphere(mesh_, xyz, n_src, x);
-  clamp_into_grid(x);  // a mesh never lies beyond the grid (grid_box.h); checked below like the rest
   // The source mesh need not have come from an engine: a mesh that crosses
   // itself would void the step guard's promise from the first step.
   if (mark_intersections(mesh_, x, scratch_.triangles, nullptr) > 0) {
@@ -282,12 +264,6 @@ uint32_t Engine::overlapped_object(uint32_t object, const double* x) {
     if (scratch_.contacts.crossed[k++]) return j;
   }
   return hit;
-}
-
-uint32_t Engine::clamp_into_grid(double* x) const {
-  uint32_t moved = 0;
-  for (uint32_t v = 0; v < mesh_.nv; ++v) moved += clamp_to_grid(vol_, x + 3 * size_t(v));
-  return moved;
 }
 
 void Engine::place(uint32_t object, const double c[3], double r, const double* x) {

@@ -72,9 +72,6 @@ class Engine {
   // would overlap (max_objects: none), and the placement of x.
   Err check_seed(const char* call, uint32_t object, const double c[3], double r);
   uint32_t overlapped_object(uint32_t object, const double* x);
-  // Puts the vertices of x (3 nv, mm) that lie beyond the grid's box onto it
-  // (grid_box.h); returns how many moved.
-  uint32_t clamp_into_grid(double* x) const;
   void place(uint32_t object, const double c[3], double r, const double* x);
   ConvergenceRule rule() const;
   Err update_regions();

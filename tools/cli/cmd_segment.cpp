@@ -134,15 +134,6 @@ class Progress {
   bool dirty_ = false;
 };
 
-// Why the engine refused a sphere as outside: it meets no voxel of the grid,
-// or it reaches so far beyond the grid that its part inside cannot start a
-// mesh (the engine's message says which; issue 30).
-std::string outside_message(const std::string& engine_detail) {
-  if (engine_detail.find("does not meet") != std::string::npos) return "the sphere does not meet the volume grid";
-  const size_t at = engine_detail.find("reaches so far beyond");
-  return at == std::string::npos ? engine_detail : "the sphere " + engine_detail.substr(at);
-}
-
 // "x -90 .. 90, y ... mm": the world box of the voxel centres.
 std::string world_extent(const ffseg_tools::NiftiImage& img) {
   double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
@@ -301,7 +292,7 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
     if (st == FFSEG_ERR_SPHERE_OUTSIDE || st == FFSEG_ERR_INVALID_ARGUMENT) {
       const std::string detail = ffseg_last_error(ws.e);
       fail(kExitUsage, "object " + std::to_string(k + 1) + " (" + s.text + "): " +
-                           (st == FFSEG_ERR_SPHERE_OUTSIDE ? outside_message(detail) + " (" + world_extent(img) + ")"
+                           (st == FFSEG_ERR_SPHERE_OUTSIDE ? "the sphere does not meet the volume grid (" + world_extent(img) + ")"
                                                            : (detail.empty() ? ffseg_status_string(st) : detail)));
     }
     if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_init_sphere (object " + std::to_string(k + 1) + ")");
