@@ -10,7 +10,7 @@
 #define FFSEG_CONFIG_FIELDS(F)                                                            \
   F(ffseg_config, struct_size) F(ffseg_config, max_objects) F(ffseg_config, mesh_resolution) \
   F(ffseg_config, reserved0) F(ffseg_config, max_roi_voxels) F(ffseg_config, target_mode)   \
-  F(ffseg_config, reserved1)
+  F(ffseg_config, reserved1) F(ffseg_config, max_region_voxels)
 
 #define FFSEG_PARAMS_FIELDS(F)                                                            \
   F(ffseg_params, struct_size) F(ffseg_params, target_mode) F(ffseg_params, lambda_laplacian) \

@@ -183,6 +183,7 @@ ffseg_status convert_config(const ffseg_config* c, ffseg::Config* out, char* msg
   out->max_objects = full.max_objects;
   out->mesh_resolution = full.mesh_resolution;
   out->max_roi_voxels = full.max_roi_voxels;
+  out->max_region_voxels = full.max_region_voxels;
   out->target_mode = ffseg::TargetMode(full.target_mode);
   return to_status(ffseg::check_config(*out, msg, n));
 }
@@ -222,7 +223,7 @@ FFSEG_API const char* ffseg_status_string(ffseg_status s) {
     case FFSEG_ERR_BUFFER_TOO_SMALL: return "buffer too small";
     case FFSEG_ERR_MISUSE: return "call made in the wrong order";
     case FFSEG_ERR_NUMERIC: return "numeric failure";
-    case FFSEG_ERR_ROI_TOO_LARGE: return "region of interest exceeds max_roi_voxels";
+    case FFSEG_ERR_ROI_TOO_LARGE: return "region of interest exceeds max_roi_voxels or max_region_voxels";
     case FFSEG_ERR_SPHERE_OUTSIDE: return "sphere does not meet the volume";
     case FFSEG_ERR_STRUCT_SIZE: return "struct_size too small";
     case FFSEG_ERR_CONFIG_TOO_LARGE: return "configuration too large";
@@ -245,6 +246,7 @@ FFSEG_API void ffseg_config_init_default(ffseg_config* c) {
   c->max_objects = d.max_objects;
   c->mesh_resolution = d.mesh_resolution;
   c->max_roi_voxels = d.max_roi_voxels;
+  c->max_region_voxels = d.max_region_voxels;
   c->target_mode = uint32_t(d.target_mode);
 }
 

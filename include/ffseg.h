@@ -62,7 +62,7 @@ extern "C" {
 
 /* ---- Version ------------------------------------------------------------ */
 #define FFSEG_VERSION_MAJOR 0
-#define FFSEG_VERSION_MINOR 5
+#define FFSEG_VERSION_MINOR 6
 #define FFSEG_VERSION_PATCH 0
 #define FFSEG_VERSION_NUMBER \
   (FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH)
@@ -106,7 +106,8 @@ typedef int32_t ffseg_status;
 /* A numeric failure (matrix not positive definite, non-finite values);
  * the mesh is left as it was before the call. */
 #define FFSEG_ERR_NUMERIC (-9)
-/* A cropped region needs more voxels than config.max_roi_voxels (message: how many). */
+/* A cropped region needs more voxels than config.max_roi_voxels, or a bounding region more
+ * than config.max_region_voxels even on its coarsest cells (message: how many). */
 #define FFSEG_ERR_ROI_TOO_LARGE (-10)
 /* The sphere does not meet the volume's grid. */
 #define FFSEG_ERR_SPHERE_OUTSIDE (-11)
@@ -142,6 +143,16 @@ typedef struct ffseg_config {
                                FFSEG_TARGET_BINARY reserves none, much smaller workspace,
                                and ffseg_set_params refuses target_mode = intensity */
   uint32_t reserved1;       /* must be 0 */
+  /* Since 0.6.0 (a shorter struct, struct_size 32, reads as the default): */
+  int64_t max_region_voxels; /* several objects: the voxels one bounding region is marched
+                               on (the shared fast marching, 22 bytes each, and each object's
+                               arrival times, 4 bytes each); 0..2^40; 0 (default) = max_roi_voxels.
+                               A region's box (mesh box grown by region_width_mm) with more
+                               voxels is marched on cells of several voxels, the finest that
+                               fit (its border then placed to within a cell); cells coarser
+                               than half the region width are refused with
+                               FFSEG_ERR_ROI_TOO_LARGE. So regions need not take memory in
+                               proportion to the scan (thesis 7.2). */
 } ffseg_config;
 
 /* Fills *c with the defaults above and struct_size = sizeof(ffseg_config). */

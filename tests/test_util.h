@@ -38,12 +38,13 @@ struct EngineBox {
   void* ws = nullptr;
   size_t bytes = 0;
   ffseg_engine* e = nullptr;
-  EngineBox(uint32_t objects, uint32_t n, int64_t max_roi = int64_t(1) << 22) {
+  EngineBox(uint32_t objects, uint32_t n, int64_t max_roi = int64_t(1) << 22, int64_t max_region = 0) {
     ffseg_config c;
     ffseg_config_init_default(&c);
     c.max_objects = objects;
     c.mesh_resolution = n;
     c.max_roi_voxels = max_roi;
+    c.max_region_voxels = max_region;
     if (ffseg_workspace_size(&c, &bytes) != FFSEG_OK) return;
     ws = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
     if (ffseg_create(&c, ws, bytes, &e) != FFSEG_OK) e = nullptr;

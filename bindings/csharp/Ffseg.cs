@@ -74,6 +74,9 @@ public struct Config {
   public long MaxRoiVoxels;
   public uint TargetMode;  // FFSEG_TARGET_INTENSITY (default) or FFSEG_TARGET_BINARY: binary only, smaller workspace
   public uint Reserved1;
+  // Since 0.6.0: several objects, the voxels one bounding region is marched on
+  // (0: MaxRoiVoxels); a larger box is marched on coarser cells.
+  public long MaxRegionVoxels;
 
   public static Config Default() {
     Config c;

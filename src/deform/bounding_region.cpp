@@ -48,59 +48,136 @@ bool nearest_voxel(const VolumeView& vol, const double p[3], int64_t q[3]) {
 
 constexpr int kSpeedTable = 4096;
 
-// The speed image over the box (fm's layout), eq. 6.2.2-6.2.3.
-void fill_speed(const VolumeView& vol, const RegionSpeed& sp, const int64_t lo[3], const int64_t n[3], float* s) {
-  if (sp.model == nullptr) {
-    int64_t q = 0;
-    for (int64_t k = 0; k < n[2]; ++k)
-      for (int64_t j = 0; j < n[1]; ++j)
-        vol.for_each_in_row(lo[0], lo[1] + j, lo[2] + k, 0, n[0], [&](int64_t, double v) {
-          s[q++] = (std::isfinite(v) && v != 0) ? 1.0f : 0.0f;
-        });
-    return;
+// The cells of the box, for the speed and seed passes.
+struct CellBox {
+  const int64_t* lo;  // voxel box
+  const int64_t* n;
+  const int64_t* f;   // voxels per cell
+  const int64_t* clo; // cell box
+  const int64_t* cn;
+  bool unit() const { return f[0] == 1 && f[1] == 1 && f[2] == 1; }
+  // Crop index of the cell holding voxel lo + (i, j, k).
+  int64_t cell(int64_t i, int64_t j, int64_t k) const {
+    return ((lo[0] + i) / f[0] - clo[0]) + cn[0] * (((lo[1] + j) / f[1] - clo[1]) + cn[1] * ((lo[2] + k) / f[2] - clo[2]));
   }
-  const SmoothedRoi* roi = sp.roi;
+  // Voxels of the box in cell c along axis a.
+  int64_t share(int a, int64_t c) const {
+    const int64_t first = (clo[a] + c) * f[a], l = first > lo[a] ? first : lo[a];
+    const int64_t e = first + f[a], h = e < lo[a] + n[a] ? e : lo[a] + n[a];
+    return h - l;
+  }
+};
+
+// Calls g(i, j, k, v) for every voxel lo + (i, j, k) of the box, rows along
+// i, with v the smoothed value where the crop has it and the raw value
+// elsewhere (the object's own smoothing, never a second one).
+template <class G>
+void for_each_value(const VolumeView& vol, const SmoothedRoi* roi, const int64_t lo[3], const int64_t n[3], G&& g) {
   const int64_t* glo = roi && roi->valid() ? roi->data_lo() : nullptr;
   const int64_t* ghi = roi && roi->valid() ? roi->data_hi() : nullptr;
-  // The values first (smoothed where the crop has them), into s, and their range.
-  double vmin = INFINITY, vmax = -INFINITY;
-  int64_t q = 0;
   for (int64_t k = 0; k < n[2]; ++k)
     for (int64_t j = 0; j < n[1]; ++j) {
       const int64_t gj = lo[1] + j, gk = lo[2] + k;
       const bool row_smoothed = glo && gj >= glo[1] && gj < ghi[1] && gk >= glo[2] && gk < ghi[2];
       vol.for_each_in_row(lo[0], gj, gk, 0, n[0], [&](int64_t t, double raw) {
         const int64_t gi = lo[0] + t;
-        const double v = row_smoothed && gi >= glo[0] && gi < ghi[0] ? double(roi->at(gi, gj, gk)) : raw;
-        const float f = float(v);
-        s[q++] = f;
-        if (std::isfinite(f)) {
-          vmin = std::fmin(vmin, double(f));
-          vmax = std::fmax(vmax, double(f));
-        }
+        g(t, j, k, row_smoothed && gi >= glo[0] && gi < ghi[0] ? double(roi->at(gi, gj, gk)) : raw);
       });
     }
+}
+
+// The posterior of eq. 6.2.2-6.2.3 tabulated over [vmin, vmax], linear in between.
+struct SpeedTable {
   float table[kSpeedTable];
-  const double step = vmax > vmin ? (vmax - vmin) / (kSpeedTable - 1) : 1.0;
-  for (int b = 0; b < kSpeedTable; ++b)
-    table[b] = float(sp.model->posterior_against(vmin + b * step, sp.others, sp.other_count));
-  const double inv = 1.0 / step;
-  for (int64_t p = 0; p < q; ++p) {
-    const float v = s[p];
-    if (!std::isfinite(v)) {
-      s[p] = 0.0f;
-      continue;
-    }
+  double vmin, inv;
+  SpeedTable(const RegionSpeed& sp, double lo, double hi) : vmin(lo) {
+    const double step = hi > lo ? (hi - lo) / (kSpeedTable - 1) : 1.0;
+    for (int b = 0; b < kSpeedTable; ++b)
+      table[b] = float(sp.model->posterior_against(lo + b * step, sp.others, sp.other_count));
+    inv = 1.0 / step;
+  }
+  float operator()(float v) const {
+    if (!std::isfinite(v)) return 0.0f;
     const double f = (double(v) - vmin) * inv;
     int b = int(f);
     if (b >= kSpeedTable - 1) b = kSpeedTable - 2;
     if (b < 0) b = 0;
     const double w = f - b;
-    s[p] = float(table[b] + w * (table[b + 1] - table[b]));
+    return float(table[b] + w * (table[b + 1] - table[b]));
   }
+};
+
+// The speed image over the box's cells (fm's layout), eq. 6.2.2-6.2.3: per
+// voxel on unit cells, else the mean of each cell's voxels.
+void fill_speed(const VolumeView& vol, const RegionSpeed& sp, const CellBox& cb, float* s) {
+  const int64_t* lo = cb.lo;
+  const int64_t* n = cb.n;
+  const bool unit = cb.unit();
+  const int64_t cells = cb.cn[0] * cb.cn[1] * cb.cn[2];
+  auto indicator = [](double v) { return (std::isfinite(v) && v != 0) ? 1.0f : 0.0f; };
+  if (unit && sp.model == nullptr) {
+    int64_t q = 0;
+    for_each_value(vol, nullptr, lo, n, [&](int64_t, int64_t, int64_t, double v) { s[q++] = indicator(v); });
+    return;
+  }
+  // The range of the values first (on unit cells, the values kept in s).
+  double vmin = INFINITY, vmax = -INFINITY;
+  int64_t q = 0;
+  if (sp.model) {
+    for_each_value(vol, sp.roi, lo, n, [&](int64_t, int64_t, int64_t, double v) {
+      const float f = float(v);
+      if (unit) s[q++] = f;
+      if (std::isfinite(f)) {
+        vmin = std::fmin(vmin, double(f));
+        vmax = std::fmax(vmax, double(f));
+      }
+    });
+  }
+  if (unit) {
+    const SpeedTable table(sp, vmin, vmax);
+    for (int64_t p = 0; p < q; ++p) s[p] = table(s[p]);
+    return;
+  }
+  // Cells: the sum of their voxels' speeds, then the mean.
+  for (int64_t c = 0; c < cells; ++c) s[c] = 0.0f;
+  if (sp.model) {
+    const SpeedTable table(sp, vmin, vmax);
+    for_each_value(vol, sp.roi, lo, n, [&](int64_t i, int64_t j, int64_t k, double v) {
+      s[cb.cell(i, j, k)] += table(float(v));
+    });
+  } else {
+    for_each_value(vol, nullptr, lo, n, [&](int64_t i, int64_t j, int64_t k, double v) {
+      s[cb.cell(i, j, k)] += indicator(v);
+    });
+  }
+  for (int64_t c2 = 0; c2 < cb.cn[2]; ++c2)
+    for (int64_t c1 = 0; c1 < cb.cn[1]; ++c1)
+      for (int64_t c0 = 0; c0 < cb.cn[0]; ++c0) {
+        const int64_t count = cb.share(0, c0) * cb.share(1, c1) * cb.share(2, c2);
+        s[c0 + cb.cn[0] * (c1 + cb.cn[1] * c2)] /= float(count);
+      }
 }
 
 }  // namespace
+
+bool region_cells(const int64_t lo[3], const int64_t n[3], const double h[3], int64_t max_cells, double max_cell_mm,
+                  int64_t f[3]) {
+  const double hmin = std::fmin(h[0], std::fmin(h[1], h[2]));
+  for (int64_t c = 1;; ++c) {
+    double count = 1;
+    bool coarsest = true;  // every axis in one or two cells: coarser changes nothing
+    for (int a = 0; a < 3; ++a) {
+      const long r = std::lround(double(c) * hmin / h[a]);
+      f[a] = r < 1 ? 1 : int64_t(r);
+      if (double(f[a]) * h[a] > max_cell_mm && f[a] > 1) return false;
+      const int64_t cells = (lo[a] + n[a] - 1) / f[a] - lo[a] / f[a] + 1;
+      count *= double(cells);
+      coarsest = coarsest && f[a] >= n[a];
+    }
+    if (count <= double(max_cells)) return true;
+    if (coarsest) return false;
+  }
+}
 
 RegionStatus compute_region(const CubeSphere& m, const double* x, const VolumeView& vol, const RegionSpeed& speed,
                             double width_mm, FastMarching& fm, uint8_t* seed_mask, RegionMap& out, char* msg,
@@ -131,22 +208,45 @@ RegionStatus compute_region(const CubeSphere& m, const double* x, const VolumeVi
     lo[a] = int64_t(l);
     n[a] = int64_t(u) - lo[a] + 1;
   }
-  const FmStatus bs = fm.begin(n, h, msg, msg_len);
+  int64_t f[3];
+  if (!region_cells(lo, n, h, fm.max_voxels(), 0.5 * width_mm, f)) {
+    if (msg && msg_len)
+      std::snprintf(msg, msg_len,
+                    "bounding region box %lld x %lld x %lld voxels does not fit the region budget of %lld voxels "
+                    "(config.max_region_voxels, or max_roi_voxels when it is 0) on cells of at most half the "
+                    "region width (%g mm)",
+                    (long long)n[0], (long long)n[1], (long long)n[2], (long long)fm.max_voxels(), 0.5 * width_mm);
+    return RegionStatus::too_large;
+  }
+  int64_t clo[3], cn[3];
+  double hc[3];
+  for (int a = 0; a < 3; ++a) {
+    clo[a] = lo[a] / f[a];
+    cn[a] = (lo[a] + n[a] - 1) / f[a] - clo[a] + 1;
+    hc[a] = h[a] * double(f[a]);
+  }
+  const CellBox cb{lo, n, f, clo, cn};
+  const FmStatus bs = fm.begin(cn, hc, msg, msg_len);
   if (bs == FmStatus::too_large) return RegionStatus::too_large;
   if (bs != FmStatus::ok) return RegionStatus::off_grid;
-  // The front: the voxels inside the mesh and the one nearest to each vertex.
-  rasterize_mesh_box(m, x, vol, lo, n, seed_mask);
-  const int64_t count = n[0] * n[1] * n[2];
+  // The front: the cells whose centres lie inside the mesh and the one
+  // nearest to each vertex.
+  const VolumeView cells = cb.unit() ? vol : vol.cell_geometry(f);
+  rasterize_mesh_box(m, x, cells, clo, cn, seed_mask);
+  const int64_t count = cn[0] * cn[1] * cn[2];
   for (uint32_t v = 0; v < m.nv; ++v) {
     double p[3];
     int64_t q[3];
-    vol.world_to_index(x + 3 * size_t(v), p);
-    if (!nearest_voxel(vol, p, q)) continue;
-    seed_mask[(q[0] - lo[0]) + n[0] * ((q[1] - lo[1]) + n[1] * (q[2] - lo[2]))] = 1;
+    cells.world_to_index(x + 3 * size_t(v), p);
+    if (!nearest_voxel(cells, p, q)) continue;
+    if (q[0] < clo[0] || q[1] < clo[1] || q[2] < clo[2] || q[0] >= clo[0] + cn[0] || q[1] >= clo[1] + cn[1] ||
+        q[2] >= clo[2] + cn[2])
+      continue;
+    seed_mask[(q[0] - clo[0]) + cn[0] * ((q[1] - clo[1]) + cn[1] * (q[2] - clo[2]))] = 1;
   }
   fm.seed_mask(seed_mask);
   float* s = fm.speed_buffer();
-  fill_speed(vol, speed, lo, n, s);
+  fill_speed(vol, speed, cb, s);
   const float cap = float(width_mm);
   fm.march(s, cap);
   const float* t = fm.times();
@@ -154,6 +254,9 @@ RegionStatus compute_region(const CubeSphere& m, const double* x, const VolumeVi
   for (int a = 0; a < 3; ++a) {
     out.lo[a] = lo[a];
     out.n[a] = n[a];
+    out.f[a] = f[a];
+    out.clo[a] = clo[a];
+    out.cn[a] = cn[a];
   }
   out.cap = cap;
   out.reached = fm.accepted();

@@ -60,7 +60,7 @@ void Engine::layout(Arena& a) {
   // Several objects: bounding regions (thesis chapter 6), one front at a
   // time in the shared marcher, each object's times in its own map.
   const bool regions = cfg_.max_objects > 1;
-  if (regions) scratch_.carve_regions(a, mesh_, cfg_.max_roi_voxels, cfg_.max_objects);
+  if (regions) scratch_.carve_regions(a, mesh_, cfg_.region_voxels(), cfg_.max_objects);
   objects_ = a.alloc<Object>(cfg_.max_objects);
   region_maps_ = regions ? a.alloc<RegionMap>(cfg_.max_objects) : nullptr;
   Object probe;  // measuring pass: carve through a throw-away object
@@ -77,7 +77,7 @@ void Engine::layout(Arena& a) {
     if (regions) {
       RegionMap probe_map;
       o->region = region_maps_ ? new (&region_maps_[i]) RegionMap() : &probe_map;
-      o->region->carve(a, cfg_.max_roi_voxels);
+      o->region->carve(a, cfg_.region_voxels());
       if (!region_maps_) o->region = nullptr;
     }
   }

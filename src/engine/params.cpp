@@ -32,6 +32,10 @@ Err check_config(const Config& c, char* msg, size_t n) {
     std::snprintf(msg, n, "config.max_roi_voxels = %lld is outside 0..2^40", (long long)c.max_roi_voxels);
     return Err::invalid_argument;
   }
+  if (c.max_region_voxels < 0 || c.max_region_voxels > kMaxRoi) {
+    std::snprintf(msg, n, "config.max_region_voxels = %lld is outside 0..2^40", (long long)c.max_region_voxels);
+    return Err::invalid_argument;
+  }
   if (c.target_mode != TargetMode::binary && c.target_mode != TargetMode::intensity) {
     std::snprintf(msg, n, "config.target_mode = %u is neither 0 (binary) nor 1 (intensity)", uint32_t(c.target_mode));
     return Err::invalid_argument;

@@ -16,6 +16,11 @@ struct Config {
   uint32_t max_objects = 1;
   uint32_t mesh_resolution = 33;
   int64_t max_roi_voxels = int64_t(1) << 22;
+  // Several objects: the voxels (or cells) of one bounding region's march and
+  // times; 0: max_roi_voxels. A larger box is marched on coarser cells
+  // (bounding_region.h).
+  int64_t max_region_voxels = 0;
+  int64_t region_voxels() const { return max_region_voxels > 0 ? max_region_voxels : max_roi_voxels; }
   // intensity: the grey-level buffers are reserved and either mode may be set;
   // binary: none are (Engine::layout), and set_params refuses intensity.
   TargetMode target_mode = TargetMode::intensity;

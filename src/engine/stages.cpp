@@ -123,8 +123,11 @@ Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object
   else
     roi_box_for_points(vol, o.x, nv, range, lo, hi);
   // The crop is recomputed only when the mesh outgrows it, with a search
-  // range of slack.
+  // range of slack where max_roi_voxels holds it (the slack saves
+  // recomputations, the crop needs only the range).
   if (!o.roi.valid() || !o.roi.contains(lo, hi)) {
+    int64_t need_lo[3], need_hi[3];
+    for (int a = 0; a < 3; ++a) need_lo[a] = lo[a], need_hi[a] = hi[a];
     if (o.model.valid()) roi_box_for_points(vol, o.x, nv, 2 * range, lo, hi);
     SmoothingSettings sm;
     sm.iterations = p.smoothing_iterations;
@@ -144,7 +147,8 @@ Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object
       sm.stats_lo = slo;
       sm.stats_hi = shi;
     }
-    const RoiStatus rs = o.roi.compute(vol, lo, hi, sm, msg, msg_len);
+    RoiStatus rs = o.roi.compute(vol, lo, hi, sm, msg, msg_len);
+    if (rs == RoiStatus::too_large && o.model.valid()) rs = o.roi.compute(vol, need_lo, need_hi, sm, msg, msg_len);
     if (rs == RoiStatus::too_large) return Err::roi_too_large;
     if (rs == RoiStatus::empty) {
       std::snprintf(msg, msg_len, "step: the mesh has left the volume");

@@ -128,7 +128,14 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     if (n < cap_ && inside(i, j, k) && finite_raw(i, j, k)) samples_[n++] = roi.at(i, j, k);
   });
   std::sort(samples_, samples_ + n);
-  const double range = roi.robust_high() - roi.robust_low();
+  // The scene's contrast without its remote classes (smoothing.h), when the
+  // object's own level (the sphere's median) is one of the box's near
+  // classes; a box held by one flat level other than the object (a
+  // noise-free background around a small structure) has fences too narrow
+  // to say what is remote from the object, and keeps its whole range.
+  const double median = n > 0 ? double(samples_[n / 2]) : 0.0;
+  const bool near = median >= roi.fence_low() && median <= roi.fence_high();
+  const double range = near ? roi.contrast_high() - roi.contrast_low() : roi.robust_high() - roi.robust_low();
   const double rho = s.sigma_floor_fraction;
   if (!(std::isfinite(rho) && rho >= 0)) {
     say(msg, msg_len, "intensity model: sigma_floor_fraction must be >= 0");

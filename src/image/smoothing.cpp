@@ -199,7 +199,7 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
   if (s.statistics || !(s.kappa > 0) || !integer_copy_applies(vol)) {
     estimate_noise(vol);
   } else {  // not needed: kappa is given and no voxel can be non-finite
-    sigma_n_ = p_lo_ = p_hi_ = 0;
+    sigma_n_ = p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
   }
   // Copy the raw region in.
   double vmin = INFINITY, vmax = -INFINITY;
@@ -262,12 +262,39 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
       }
   });
   if (ns == 0) {
-    p_lo_ = p_hi_ = 0;
+    p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
     sigma_n_ = 0;
     return;
   }
   p_lo_ = nth_of(vals, ns, int64_t(std::floor(0.01 * double(ns - 1))));
   p_hi_ = nth_of(vals, ns, int64_t(std::ceil(0.99 * double(ns - 1))));
+  // The contrast range: the same percentiles over the values inside Tukey's
+  // far-out fences, Q1 - 3 IQR .. Q3 + 3 IQR. The fences keep every class
+  // that is a neighbour in grey level of the box's bulk and leave out the
+  // remote ones (air at -1000 HU beside soft tissue of 0-60 HU), so that the
+  // scale does not jump with a few voxels of gas or lung in the box. A box
+  // whose IQR is 0 (one level holds half of it) keeps every value: the
+  // fences are undefined there. (The model uses the range only when the
+  // object's own level lies within the fences: intensity_model.h.)
+  const double q1 = nth_of(vals, ns, int64_t(std::floor(0.25 * double(ns - 1))));
+  const double q3 = nth_of(vals, ns, int64_t(std::ceil(0.75 * double(ns - 1))));
+  const double iqr = q3 - q1;
+  c_lo_ = p_lo_;
+  c_hi_ = p_hi_;
+  fence_lo_ = -INFINITY;
+  fence_hi_ = INFINITY;
+  if (iqr > 0) {
+    const double flo = q1 - kFarOutIqr * iqr, fhi = q3 + kFarOutIqr * iqr;
+    fence_lo_ = flo;
+    fence_hi_ = fhi;
+    int64_t nk = 0;
+    for (int64_t i = 0; i < ns; ++i)
+      if (vals[i] >= flo && vals[i] <= fhi) vals[nk++] = vals[i];
+    if (nk > 0) {
+      c_lo_ = nth_of(vals, nk, int64_t(std::floor(0.01 * double(nk - 1))));
+      c_hi_ = nth_of(vals, nk, int64_t(std::ceil(0.99 * double(nk - 1))));
+    }
+  }
   double best = -1;
   for (int a = 0; a < 3; ++a) {
     if (nd[a] < 16) continue;

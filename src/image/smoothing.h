@@ -178,6 +178,15 @@ class SmoothedRoi {
   double time_step() const { return dt_; }
   double robust_low() const { return p_lo_; }    // 1st percentile
   double robust_high() const { return p_hi_; }   // 99th percentile
+  // The 1st and 99th percentiles of the values within Tukey's far-out fences
+  // (smoothing.cpp): the box's contrast without remote classes (the
+  // intensity model's variance floor).
+  double contrast_low() const { return c_lo_; }
+  double contrast_high() const { return c_hi_; }
+  // The fences themselves (+-inf when the IQR is 0).
+  double fence_low() const { return fence_lo_; }
+  double fence_high() const { return fence_hi_; }
+  static constexpr double kFarOutIqr = 3;  // Tukey's "far out": 3 IQR beyond the quartiles
   double value_min() const { return vmin_; }     // raw range of the stored region
   double value_max() const { return vmax_; }
 
@@ -206,7 +215,7 @@ class SmoothedRoi {
   double A_[12] = {}, Ainv_[12] = {};
   double h_[3] = {1, 1, 1};
   double sigma_n_ = 0, kappa_ = 0, dt_ = 0;
-  double p_lo_ = 0, p_hi_ = 0, vmin_ = 0, vmax_ = 0;
+  double p_lo_ = 0, p_hi_ = 0, c_lo_ = 0, c_hi_ = 0, fence_lo_ = 0, fence_hi_ = 0, vmin_ = 0, vmax_ = 0;
   int64_t slo_[3] = {0, 0, 0}, shi_[3] = {0, 0, 0};
 };
 

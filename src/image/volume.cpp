@@ -155,6 +155,24 @@ bool VolumeView::assign(const VolumeDesc& d, char* msg, size_t n) {
   return true;
 }
 
+VolumeView VolumeView::cell_geometry(const int64_t f[3]) const {
+  VolumeView c;
+  for (int a = 0; a < 3; ++a) {
+    const double fa = double(f[a]), centre = 0.5 * (fa - 1);
+    c.dims_[a] = (dims_[a] + f[a] - 1) / f[a];
+    c.spacing_[a] = spacing_[a] * fa;
+    // Column a of the affine scaled by f; the origin moved to cell 0's centre.
+    for (int r = 0; r < 3; ++r) c.A_[4 * r + a] = A_[4 * r + a] * fa;
+    // Row a of the inverse: (voxel index - centre) / f.
+    for (int q = 0; q < 3; ++q) c.Ainv_[4 * a + q] = Ainv_[4 * a + q] / fa;
+    c.Ainv_[4 * a + 3] = (Ainv_[4 * a + 3] - centre) / fa;
+  }
+  for (int r = 0; r < 3; ++r)
+    c.A_[4 * r + 3] = A_[4 * r + 3] + 0.5 * (A_[4 * r] * double(f[0] - 1) + A_[4 * r + 1] * double(f[1] - 1) +
+                                             A_[4 * r + 2] * double(f[2] - 1));
+  return c;
+}
+
 void VolumeView::world_to_index(const double w[3], double ijk[3]) const { affine_point(Ainv_, w, ijk); }
 
 void VolumeView::index_to_world(const double ijk[3], double w[3]) const { affine_point(A_, ijk, w); }

@@ -80,6 +80,14 @@ class VolumeView {
   const int64_t* strides() const { return strides_; }
   const double* inverse() const { return Ainv_; }  // 3x4 row-major
 
+  // The grid of cells of f[a] voxels along each index axis a: cell c holds
+  // voxels f c .. f c + f - 1 (the last one may hold fewer), its centre lies at
+  // voxel f c + (f - 1) / 2, and there are ceil(dims / f) of them. Geometry
+  // only (world <-> index maps, spacing, dims): the view has no voxels, so
+  // valid() is false and at() must not be called. For code that only maps
+  // points, as the rasteriser does for a bounding region on coarser cells.
+  VolumeView cell_geometry(const int64_t f[3]) const;
+
   // True when the ball (centre c, radius r in mm) meets the grid's box
   // [-0.5, dims - 0.5] in index space.
   bool ball_meets_grid(const double c[3], double r) const;

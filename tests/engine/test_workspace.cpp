@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "cli/workspace_budget.h"
 #include "ffseg.h"
 
 namespace {
@@ -45,10 +46,15 @@ TEST_CASE("workspace: pinned sizes of a few configurations (default max_roi_voxe
   // 0.5.0: 32 B more per object (its step record keeps the guard's kept
   // share and held count and the far-target counts of the stall test),
   // rounded to the arena's 64-byte lines: +192 B for 8 objects, +64 B for 1.
-  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 230699904u);
-  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 19925568u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38520576u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20588288u);
+  // Then 32 B more per object, in its smoothed crop's record (the contrast
+  // range within Tukey's fences and the fences, issue 30): +256 B for 8
+  // objects, the single objects' records within their lines.
+  // 0.6.0: the engine's Config holds max_region_voxels (+64 B, one arena
+  // line) and each RegionMap its cells (+72 B per object, +576 B for 8).
+  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 230700800u);
+  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 19925632u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38520640u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20588352u);
 }
 
 TEST_CASE("workspace: grey-level buffers are per object and only in intensity configurations") {
@@ -185,4 +191,72 @@ TEST_CASE("workspace: several objects reserve their bounding regions from max_ro
     CHECK(bytes(objects, r2) - bytes(objects, r1) == size_t(22 + 4 * objects) * size_t(r2 - r1));
   }
   CHECK(bytes(1, r2) == bytes(1, r1));
+}
+
+TEST_CASE("workspace: five abdominal organs on a 1 mm grid fit the tool's 400 MB; a 3 mm scan keeps full-resolution regions") {
+  // Issue 30: liver, spleen, both kidneys and the vena cava in one engine on
+  // the shared CT resampled to 1 mm (366 x 303 x 336 voxels) asked for
+  // 2 403 435 648 B when every crop and region held the whole scan.
+  ffseg_config c;
+  ffseg_config_init_default(&c);
+  c.max_objects = 5;
+  c.mesh_resolution = 49;  // what the automatic resolution chose there
+  const int64_t fine = int64_t(366) * 303 * 336, coarse = int64_t(122) * 101 * 112;
+  const uint64_t budget = 400000000;
+  const ffseg_cli::WorkspaceSizing s = ffseg_cli::size_workspace(c, fine, -1, -1, budget, int64_t(1) << 26);
+  CAPTURE(s.bytes);
+  CHECK(s.fits);
+  CHECK(s.reduced);
+  CHECK(s.bytes <= budget);
+  c.max_roi_voxels = s.max_roi_voxels;
+  c.max_region_voxels = s.max_region_voxels;
+  size_t exact = 0;
+  REQUIRE(ffseg_workspace_size(&c, &exact) == FFSEG_OK);
+  CHECK(exact == s.bytes);
+  // Room for the organs: the liver's largest smoothed crop there measured
+  // 7 766 280 voxels and its largest region box 3 741 390 (cells of 2 voxels
+  // hold it in an eighth).
+  CHECK(s.max_roi_voxels >= 7766280);
+  CHECK(s.max_region_voxels * 8 >= 3741390);
+  // The 3 mm scan: everything holds the whole scan, as before issue 30.
+  c.mesh_resolution = 23;
+  const ffseg_cli::WorkspaceSizing t = ffseg_cli::size_workspace(c, coarse, -1, -1, budget, int64_t(1) << 26);
+  CHECK(t.fits);
+  CHECK_FALSE(t.reduced);
+  CHECK(t.max_roi_voxels == coarse);
+  CHECK(t.max_region_voxels == coarse);
+  // Values given on the command line are kept, even over the budget.
+  const ffseg_cli::WorkspaceSizing u = ffseg_cli::size_workspace(c, fine, fine, fine, budget, int64_t(1) << 26);
+  CHECK(u.max_roi_voxels == fine);
+  CHECK(u.max_region_voxels == fine);
+  CHECK_FALSE(u.fits);
+}
+
+TEST_CASE("workspace: max_region_voxels sizes the regions alone, 22 + 4 per object bytes a voxel; 0 means max_roi_voxels") {
+  auto bytes = [](int64_t roi, int64_t region) {
+    ffseg_config c;
+    ffseg_config_init_default(&c);
+    c.mesh_resolution = 12;
+    c.max_objects = 4;
+    c.max_roi_voxels = roi;
+    c.max_region_voxels = region;
+    size_t b = 0;
+    REQUIRE(ffseg_workspace_size(&c, &b) == FFSEG_OK);
+    return b;
+  };
+  const int64_t r1 = int64_t(1) << 16, r2 = int64_t(1) << 18;
+  CHECK(bytes(r1, r2) - bytes(r1, r1) == size_t(22 + 4 * 4) * size_t(r2 - r1));
+  CHECK(bytes(r2, 0) == bytes(r2, r2));
+  // With the regions fixed, max_roi_voxels sizes the crops: at least a float
+  // per voxel per object, and no region byte.
+  CHECK(bytes(r2, r1) - bytes(r1, r1) >= size_t(4 * 4) * size_t(r2 - r1));
+  CHECK(bytes(r2, r1) - bytes(r1, r1) < size_t(4 * 4 + 22) * size_t(r2 - r1));
+  ffseg_config c;
+  ffseg_config_init_default(&c);
+  CHECK(c.max_region_voxels == 0);
+  c.max_region_voxels = (int64_t(1) << 40) + 1;
+  size_t b = 1;
+  CHECK(ffseg_workspace_size(&c, &b) == FFSEG_ERR_INVALID_ARGUMENT);
+  CHECK(std::string(ffseg_last_error(nullptr)).find("max_region_voxels") != std::string::npos);
+  CHECK(b == 0);
 }

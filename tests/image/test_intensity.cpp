@@ -647,6 +647,55 @@ TEST_CASE("intensity: search finds a noisy CT ball's boundary from inside (outwa
   }
 }
 
+TEST_CASE("intensity: a few percent of air in the box does not widen the model (the contrast within Tukey's fences)") {
+  // A CT-like scene at 3 mm: a fluid ball of 5 HU (radius 12 mm) in a 45 HU
+  // organ, a -100 HU fat slab, and a gas pocket of -1000 HU holding about 6%
+  // of the statistics box; noise sigma 12 HU. The floor must follow the soft
+  // tissues' contrast (about 150 HU), not the air's (1,000 HU): with the old
+  // p1..p99 range the floor was about 42 HU and g(45) read above 0.6, so the
+  // fluid took the organ around it (the gallbladder of issue 30).
+  TestVolume<int16_t> v(40, 40, 40, 3, 3, 3);
+  const double c[3] = {60, 60, 60};
+  Rng rng(7);
+  for (int64_t k = 0; k < 40; ++k)
+    for (int64_t j = 0; j < 40; ++j)
+      for (int64_t i = 0; i < 40; ++i) {
+        double w[3];
+        v.world(i, j, k, w);
+        const double d = std::sqrt((w[0] - c[0]) * (w[0] - c[0]) + (w[1] - c[1]) * (w[1] - c[1]) +
+                                   (w[2] - c[2]) * (w[2] - c[2]));
+        double hu = d <= 12 ? 5 : 45;
+        if (w[0] > 75) hu = -100;
+        if (w[1] > 72 && w[2] > 72 && w[0] < 60) hu = -1000;
+        v.at(i, j, k) = int16_t(std::lround(hu + 12 * rng.normal() + 1024));
+      }
+  REQUIRE(v.finish(VoxelType::I16, 1.0, -1024.0));
+  SmoothedRoi roi;
+  IntensityModel model;
+  Carved mem([&](Arena& a) {
+    roi.carve(a, int64_t(1) << 18, kCpu);
+    model.carve(a, 4096, kCpu);
+  });
+  REQUIRE(mem.ok);
+  int64_t lo[3], hi[3], slo[3], shi[3];
+  roi_box_for_ball(v.view, c, 6 + 20, lo, hi);
+  roi_box_for_ball(v.view, c, 20, slo, shi);
+  SmoothingSettings ss;
+  ss.stats_lo = slo;
+  ss.stats_hi = shi;
+  REQUIRE(roi.compute(v.view, lo, hi, ss) == RoiStatus::ok);
+  // The box's p1 is air; the fenced range is the soft tissues'.
+  CHECK(roi.robust_low() < -500);
+  CHECK(roi.contrast_low() > -200);
+  CHECK(roi.contrast_high() - roi.contrast_low() < 250);
+  REQUIRE(model.fit(roi, c, 6, IntensityModelSettings()) == ModelStatus::ok);
+  MESSAGE("floor " << model.sigma_floor() << ", box p1..p99 " << roi.robust_low() << ".." << roi.robust_high()
+                   << ", fenced " << roi.contrast_low() << ".." << roi.contrast_high() << ", g(45) " << model.g(45));
+  CHECK(model.sigma_floor() < 20);
+  CHECK(model.g(5) > 0.8);
+  CHECK(model.g(45) < 0.2);  // the organ around the fluid is not the fluid
+}
+
 namespace {
 
 // A 64^3 u8 volume of 1 mm voxels around (32, 32, 32): value(d, i) at voxel

@@ -26,6 +26,7 @@
 #include "mesh_resolution.h"
 #include "seed_check.h"
 #include "segment_outputs.h"
+#include "workspace_budget.h"
 #include "dicom_outputs.h"
 #include "dicom_study.h"
 #include "label_grid.h"
@@ -245,9 +246,15 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
   ffseg_config_init_default(&cfg);
   cfg.max_objects = rq.objects();
   cfg.mesh_resolution = run->resolution;
-  cfg.max_roi_voxels = rq.max_roi >= 0 ? rq.max_roi : std::min<int64_t>(int64_t(img.voxel_count()), kMaxRoiCap);
   // A binary target needs no grey-level buffers: a much smaller workspace.
   cfg.target_mode = rq.params.target_mode == FFSEG_TARGET_BINARY ? FFSEG_TARGET_BINARY : FFSEG_TARGET_INTENSITY;
+  const WorkspaceSizing sz =
+      size_workspace(cfg, int64_t(img.voxel_count()), rq.max_roi, rq.max_region, rq.memory_bytes, kMaxRoiCap);
+  cfg.max_roi_voxels = sz.max_roi_voxels;
+  cfg.max_region_voxels = sz.max_region_voxels;
+  if (!sz.fits && !rq.quiet)
+    std::fprintf(stderr, "ffseg: the engine's workspace (%.0f MB) exceeds --memory %.0f MB\n", sz.bytes / 1e6,
+                 rq.memory_bytes / 1e6);
   run->ws_bytes = 0;
   ffseg_status st = ffseg_workspace_size(&cfg, &run->ws_bytes);
   if (st != FFSEG_OK) {
@@ -655,6 +662,8 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
 
   }
   cj.set("max_roi_voxels", run.cfg.max_roi_voxels);
+  cj.set("max_region_voxels", run.cfg.max_region_voxels);
+  cj.set("memory_budget_bytes", rq.memory_bytes);
   rep.set("config", std::move(cj));
   rep.set("parameters", params_json(rq.params));
   Json outs = Json::object();

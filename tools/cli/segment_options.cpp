@@ -253,8 +253,14 @@ const char* const kSegmentUsageText =
     "  --param NAME=VALUE      set an engine parameter (repeatable); NAME, default, range:\n"
     "@PARAMS@"
     "                          (full text: include/ffseg.h)\n"
-    "  --max-roi-voxels N      engine crop budget per object (default: the voxel\n"
-    "                          count, at most 2^26)\n"
+    "  --memory MB             workspace budget of one engine, 10^6 bytes (default 400): crops and\n"
+    "                          regions hold the whole scan when that fits, else the\n"
+    "                          regions are marched on coarser cells and the crops\n"
+    "                          shrink to fit (an organ that outgrows its crop ends\n"
+    "                          the run: exit 4, raise MB)\n"
+    "  --max-roi-voxels N      engine crop budget per object (default: from --memory)\n"
+    "  --max-region-voxels N   voxels of one bounding region's march (default: from\n"
+    "                          --memory; a larger box is marched on coarser cells)\n"
     "\n"
     "evaluation:\n"
     "  --truth LABELS          reference label map on VOLUME's grid: the same voxel centres\n"
@@ -423,6 +429,10 @@ SegmentRequest parse_segment_request(int argc, char** argv) {
       rq.max_steps = parse_int(args.value(tok), tok, 1, 1000000);
     } else if (tok == "--max-roi-voxels") {
       rq.max_roi = parse_int(args.value(tok), tok, 0, int64_t(1) << 40);
+    } else if (tok == "--max-region-voxels") {
+      rq.max_region = parse_int(args.value(tok), tok, 0, int64_t(1) << 40);
+    } else if (tok == "--memory") {
+      rq.memory_bytes = uint64_t(parse_int(args.value(tok), tok, 1, int64_t(1) << 30)) * 1000000u;
     } else if (tok == "--param") {
       set_param(&rq.params, args.value(tok));
     } else if (tok == "--target") {

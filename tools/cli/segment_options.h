@@ -24,6 +24,9 @@ namespace ffseg_cli {
 constexpr uint32_t kDefaultTarget = FFSEG_TARGET_INTENSITY;
 constexpr int64_t kDefaultMaxSteps = 200;
 constexpr int64_t kMaxRoiCap = int64_t(1) << 26;
+// --memory's default, MB: five abdominal organs on a 1 mm grid fit it
+// (issue 30); a larger engine is asked for explicitly.
+constexpr uint64_t kDefaultMemoryMb = 400;
 
 const char* target_name(uint32_t t);  // "binary", "intensity", "unknown"
 // binary, intensity or a number; fail(kExitUsage) otherwise.
@@ -79,7 +82,9 @@ struct SegmentRequest {
   bool have_window = false;
   double window[2] = {0, 1};       // --window LO,HI (overlay grey levels)
   int64_t max_steps = kDefaultMaxSteps;
-  int64_t max_roi = -1;            // < 0: the grid's voxel count, at most kMaxRoiCap
+  int64_t max_roi = -1;            // < 0: from the budget (workspace_budget.h)
+  int64_t max_region = -1;         // < 0: from the budget (workspace_budget.h)
+  uint64_t memory_bytes = kDefaultMemoryMb * 1000000u;  // --memory: one engine's workspace budget, bytes
   ffseg_tools::MeshFormat mesh_format = ffseg_tools::MeshFormat::Ply;
   bool have_labels_format = false;
   ffseg_tools::ImageFormat labels_format = ffseg_tools::ImageFormat::Nifti;

@@ -12,7 +12,10 @@ namespace ffseg_cli {
 
 [[noreturn]] void engine_fail(const ffseg_engine* e, ffseg_status st, const std::string& what) {
   const std::string detail = ffseg_last_error(e);
-  fail(kExitEngine, what + ": " + ffseg_status_string(st) + (detail.empty() ? "" : " (" + detail + ")"));
+  const std::string hint = st == FFSEG_ERR_ROI_TOO_LARGE
+                               ? "; the engine was sized by --memory (or --max-roi-voxels / --max-region-voxels): raise it"
+                               : "";
+  fail(kExitEngine, what + ": " + ffseg_status_string(st) + (detail.empty() ? "" : " (" + detail + ")") + hint);
 }
 
 std::vector<ObjectResult> read_results(const ffseg_engine* e, const ffseg_tools::NiftiImage& img, uint32_t nobj,

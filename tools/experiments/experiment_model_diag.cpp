@@ -1,8 +1,14 @@
-// Experiment (not a test): what the chapter 5 intensity model alone accepts on
-// Colin27, independent of the mesh. For each AAL structure, the model is fit
-// as the engine fits it (protocol sphere, crop = ball of radius r + 20 mm);
-// then over a larger crop: the fraction of label voxels it accepts, and the
-// 6-connected accepted region grown from the sphere centre against the label.
+// Experiment (not a test): what the chapter 5 intensity model alone accepts,
+// independent of the mesh. For each labelled structure, the model is fit as
+// the engine fits it (protocol sphere, crop = ball of radius r + 20 mm, the
+// statistics over the ball of 20 mm around the centre); then over a larger
+// crop: the fraction of label voxels it accepts, and the 6-connected accepted
+// region grown from the sphere centre against the label. Colin27 and eight
+// AAL structures by default; any volume with FFSEG_VOLUME, FFSEG_LABELS and
+// FFSEG_IDS (comma-separated label ids), e.g. the abdominal CT:
+//   FFSEG_VOLUME=../shared/data/abdomen_ct/ct.nii.gz \
+//   FFSEG_LABELS=../shared/data/abdomen_ct/labels.nii.gz FFSEG_IDS=4,10 \
+//   FFSEG_VERBOSE=1 build/experiment_model_diag
 // Built with the tests, never run by ctest (was the skipped case in
 // tests/test_model_diag.cpp).
 //
@@ -20,6 +26,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <vector>
 
 #include "intensity_model.h"
@@ -34,30 +41,53 @@ using namespace ffseg;
 TEST_CASE("colin27 model diagnostic") {
   ffseg_tools::NiftiImage t1, aal;
   std::string err;
-  REQUIRE(ffseg_tools::nifti_read_file("/usr/share/mricron/templates/ch2.nii.gz", &t1, &err));
-  REQUIRE(ffseg_tools::nifti_read_file("/usr/share/mricron/templates/aal.nii.gz", &aal, &err));
+  const char* vol_path = std::getenv("FFSEG_VOLUME");
+  const char* lab_path = std::getenv("FFSEG_LABELS");
+  REQUIRE(ffseg_tools::nifti_read_file(vol_path ? vol_path : "/usr/share/mricron/templates/ch2.nii.gz", &t1, &err));
+  REQUIRE(ffseg_tools::nifti_read_file(lab_path ? lab_path : "/usr/share/mricron/templates/aal.nii.gz", &aal, &err));
   VolumeDesc d{};
   d.type = uint32_t(t1.voxel_type);
   d.data = t1.data.data();
   d.data_bytes = t1.data.size();
   for (int a = 0; a < 3; ++a) d.dims[a] = t1.dims[a];
-  d.strides[0] = 1;
-  d.strides[1] = t1.dims[0];
-  d.strides[2] = int64_t(t1.dims[0]) * t1.dims[1];
+  d.strides[0] = t1.bytes_per_voxel;
+  d.strides[1] = int64_t(t1.bytes_per_voxel) * t1.dims[0];
+  d.strides[2] = int64_t(t1.bytes_per_voxel) * t1.dims[0] * t1.dims[1];
   for (int i = 0; i < 16; ++i) d.index_to_world[i] = t1.index_to_world[i];
   d.slope = 1;
   d.intercept = 0;
   VolumeView vol;
   char msg[256];
+  INFO(msg);
   REQUIRE(vol.assign(d, msg, sizeof msg));
   const double gamma = std::getenv("FFSEG_GAMMA") ? std::atof(std::getenv("FFSEG_GAMMA")) : 0.2;
-  const double sigf = std::getenv("FFSEG_SIGF") ? std::atof(std::getenv("FFSEG_SIGF")) : 0.05;
-  const int labels[] = {73, 74, 77, 78, 71, 72, 37, 38};
+  const double sigf = std::getenv("FFSEG_SIGF") ? std::atof(std::getenv("FFSEG_SIGF")) : 0.04;
+  // Label maps come as any voxel type (the abdominal CT's is float64).
+  auto label_at = [&](size_t i) -> long {
+    const uint8_t* q = aal.data.data() + i * size_t(aal.bytes_per_voxel);
+    switch (aal.voxel_type) {
+      case ffseg_tools::kNiftiVoxU8: return *q;
+      case ffseg_tools::kNiftiVoxI16: { int16_t v; std::memcpy(&v, q, 2); return v; }
+      case ffseg_tools::kNiftiVoxU16: { uint16_t v; std::memcpy(&v, q, 2); return v; }
+      case ffseg_tools::kNiftiVoxI32: { int32_t v; std::memcpy(&v, q, 4); return v; }
+      case ffseg_tools::kNiftiVoxF32: { float v; std::memcpy(&v, q, 4); return std::lround(v); }
+      default: { double v; std::memcpy(&v, q, 8); return std::lround(v); }
+    }
+  };
+  std::vector<int> labels = {73, 74, 77, 78, 71, 72, 37, 38};
+  if (const char* ids = std::getenv("FFSEG_IDS")) {
+    labels.clear();
+    for (const char* q = ids; *q;) {
+      labels.push_back(std::atoi(q));
+      while (*q && *q != ',') ++q;
+      if (*q == ',') ++q;
+    }
+  }
   std::printf("| AAL | comps | competitors | truth accepted | grown Dice | grown ml / true ml | accepted in 3 mm shell |\n|---|---|---|---|---|---|---|\n");
   for (int label : labels) {
-    const size_t N = aal.data.size();
+    const size_t N = size_t(aal.dims[0]) * aal.dims[1] * aal.dims[2];
     std::vector<uint8_t> truth(N);
-    for (size_t i = 0; i < N; ++i) truth[i] = aal.data[i] == label;
+    for (size_t i = 0; i < N; ++i) truth[i] = label_at(i) == label;
     std::array<int, 3> ijk{};
     double depth = 0;
     REQUIRE(ffseg_tools::find_deepest_voxel(truth.data(), aal.dims, aal.spacing, &ijk, &depth));
@@ -81,11 +111,17 @@ TEST_CASE("colin27 model diagnostic") {
       bhi[a] = ijk[a] + bm + 1;
     }
     SmoothingSettings sm;
+    int64_t slo[3], shi[3];  // the engine's statistics box: the search range around the centre
+    roi_box_for_ball(vol, c, 20.0, slo, shi);
+    roi_box_for_ball(vol, c, r + 20.0, lo, hi);
+    sm.stats_lo = slo;
+    sm.stats_hi = shi;
     REQUIRE(roi.compute(vol, lo, hi, sm) == RoiStatus::ok);
     IntensityModelSettings ms;
     ms.sigma_floor_fraction = sigf;
     REQUIRE(model.fit(roi, c, r, ms) == ModelStatus::ok);
     sm.kappa = roi.kappa();
+    sm.stats_lo = sm.stats_hi = nullptr;
     REQUIRE(big.compute(vol, blo, bhi, sm) == RoiStatus::ok);
     const int* D = aal.dims;
     auto lin = [&](int64_t i, int64_t j, int64_t k) { return size_t(i + D[0] * (j + int64_t(D[1]) * k)); };
@@ -134,6 +170,8 @@ TEST_CASE("colin27 model diagnostic") {
                 double(tacc) / double(tn), gm.dice, gm.vol_a_ml, gm.vol_b_ml, double(sha) / double(sh));
     if (std::getenv("FFSEG_VERBOSE")) {
       std::sort(tv.begin(), tv.end());
+      std::printf("   sphere r %.1f mm, sigma_floor %.1f, noise %.1f, contrast %.1f..%.1f\n", r,
+                  model.sigma_floor(), roi.noise_sigma(), roi.contrast_low(), roi.contrast_high());
       std::printf("   truth smoothed intensity p5 %.1f p25 %.1f p50 %.1f p75 %.1f p95 %.1f\n", tv[tv.size() / 20],
                   tv[tv.size() / 4], tv[tv.size() / 2], tv[3 * tv.size() / 4], tv[19 * tv.size() / 20]);
       for (uint32_t i = 0; i < model.components(); ++i)

@@ -361,8 +361,15 @@ static class Tests {
   }
 
   // Two objects in a bar of ones: after a few steps their bounding regions
-  // (ffseg_region_mask) are non-empty and share no voxel; before, MISUSE.
+  // (ffseg_region_mask) are non-empty and share no voxel; before, MISUSE. On
+  // voxels, and on cells of 3 voxels when 256 cannot hold a region's box
+  // (Config.MaxRegionVoxels, 0.6.0).
   static void TwoObjectsGetDisjointRegions() {
+    TwoObjectsGetDisjointRegions(0);
+    TwoObjectsGetDisjointRegions(256);
+  }
+
+  static void TwoObjectsGetDisjointRegions(long maxRegion) {
     long[] dims = {40, 12, 12};
     var bar = new byte[40 * 12 * 12];
     for (int k = 3; k < 9; ++k)
@@ -370,6 +377,7 @@ static class Tests {
         for (int i = 4; i < 36; ++i) bar[i + 40 * (j + 12 * k)] = 1;
     Config c = Small(6);
     c.MaxObjects = 2;
+    c.MaxRegionVoxels = maxRegion;
     using (var e = new Engine(c)) {
       e.SetVolume(bar, dims);
       e.InitSphere(0, new double[] {10, 5.5, 5.5}, 2);

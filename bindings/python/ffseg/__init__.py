@@ -28,7 +28,7 @@ from . import _abi
 from ._abi import (CONVERGED, DEGENERATE, OBJECT_FILLS_GRID, OBJECT_NO_BOUNDARY, OBJECT_STALLED,  # noqa: F401
                    OK, STAGE_NAMES, TARGET_BINARY, TARGET_INTENSITY)
 
-__all__ = ["Engine", "Error", "VolumeError", "StepInfo", "segment", "library_path", "version",
+__all__ = ["Engine", "Error", "VolumeError", "StepInfo", "segment", "workspace_sizing", "library_path", "version",
            "param_names", "TARGET_BINARY", "TARGET_INTENSITY", "STAGE_NAMES", "DEGENERATE",
            "OBJECT_NO_BOUNDARY", "OBJECT_FILLS_GRID", "OBJECT_STALLED"]
 
@@ -209,11 +209,12 @@ class StepInfo:
 class Engine:
     """One ffseg engine inside a 64-byte aligned workspace it owns.
 
-    Engine(max_objects=1, mesh_resolution=33, max_roi_voxels=None): the
-    ffseg_config fields (None keeps the library's default). Use from one
+    Engine(max_objects=1, mesh_resolution=33, max_roi_voxels=None,
+    max_region_voxels=None): the ffseg_config fields (None keeps the
+    library's default; workspace_sizing() gives the tool's). Use from one
     thread at a time; distinct engines may run in parallel."""
 
-    def __init__(self, max_objects=1, mesh_resolution=33, max_roi_voxels=None):
+    def __init__(self, max_objects=1, mesh_resolution=33, max_roi_voxels=None, max_region_voxels=None):
         cfg = _abi.Config()
         _lib.ffseg_config_init_default(_C.byref(cfg))
         cfg.struct_size = _C.sizeof(cfg)
@@ -221,6 +222,8 @@ class Engine:
         cfg.mesh_resolution = _u32(mesh_resolution, "mesh_resolution")
         if max_roi_voxels is not None:
             cfg.max_roi_voxels = int(max_roi_voxels)
+        if max_region_voxels is not None:
+            cfg.max_region_voxels = int(max_region_voxels)
         self._e = None
         nbytes = _C.c_size_t(0)
         _check(_lib.ffseg_workspace_size(_C.byref(cfg), _C.byref(nbytes)), "ffseg_workspace_size")
@@ -233,7 +236,7 @@ class Engine:
                                  _C.byref(e)), "ffseg_create")
         self._e = e
         self.config = {"max_objects": cfg.max_objects, "mesh_resolution": cfg.mesh_resolution,
-                       "max_roi_voxels": cfg.max_roi_voxels}
+                       "max_roi_voxels": cfg.max_roi_voxels, "max_region_voxels": cfg.max_region_voxels}
         self._params = _default_params()
         self._volume = None  # the array the engine reads: kept alive here
         self._shape = None
@@ -422,22 +425,73 @@ def _u32(x, what):
     return v
 
 
+DEFAULT_MEMORY_BYTES = 400 * 10**6  # the tool's --memory default
+
+
+def workspace_sizing(max_objects, mesh_resolution, voxels, target_mode="intensity", max_roi_voxels=None,
+                     max_region_voxels=None, memory_bytes=DEFAULT_MEMORY_BYTES, roi_cap=1 << 26):
+    """The `ffseg segment` tool's sizes (tools/cli/workspace_budget.h) for an
+    engine of max_objects objects on a scan of `voxels` voxels: crops and
+    regions hold the whole scan (at most roi_cap) when that workspace fits
+    memory_bytes; else regions get an eighth of a crop's voxels (marched on
+    cells); else the crops shrink to the largest that fits. Given values are
+    kept. Returns (max_roi_voxels, max_region_voxels, workspace_bytes)."""
+    cfg = _abi.Config()
+    _lib.ffseg_config_init_default(_C.byref(cfg))
+    cfg.struct_size = _C.sizeof(cfg)
+    cfg.max_objects = _u32(max_objects, "max_objects")
+    cfg.mesh_resolution = _u32(mesh_resolution, "mesh_resolution")
+    cfg.target_mode = 0 if target_mode in ("binary", 0) else 1
+
+    def size(roi, region):
+        cfg.max_roi_voxels, cfg.max_region_voxels = int(roi), int(region)
+        n = _C.c_size_t(0)
+        _check(_lib.ffseg_workspace_size(_C.byref(cfg), _C.byref(n)), "ffseg_workspace_size")
+        return n.value
+
+    def region_for(roi, coarse):
+        if max_region_voxels is not None:
+            return int(max_region_voxels)
+        return max(roi // 8, 1) if coarse else roi
+
+    crop = int(max_roi_voxels) if max_roi_voxels is not None else min(int(voxels), roi_cap)
+    for coarse in (False, True):
+        if coarse and max_region_voxels is not None:
+            break
+        b = size(crop, region_for(crop, coarse))
+        if b <= memory_bytes:
+            return crop, region_for(crop, coarse), b
+    if max_roi_voxels is not None:  # the crops were given: the regions coarse, the excess the caller's
+        return crop, region_for(crop, True), size(crop, region_for(crop, True))
+    lo, hi = 0, crop
+    while hi - lo > 1:
+        mid = lo + (hi - lo) // 2
+        if size(mid, region_for(mid, True)) <= memory_bytes:
+            lo = mid
+        else:
+            hi = mid
+    lo = max(lo, 1)
+    return lo, region_for(lo, True), size(lo, region_for(lo, True))
+
+
 def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33, max_steps=200,
             max_roi_voxels=None, rescale_slope=1.0, rescale_intercept=0.0, return_meshes=False,
-            **params):
+            max_region_voxels=None, memory_bytes=DEFAULT_MEMORY_BYTES, **params):
     """One call: every sphere ((x, y, z), radius_mm) grows into an object.
 
     The defaults are the `ffseg segment` tool's (grey-level target, n = 33,
-    200 steps, crop budget = the voxel count up to 2^26), so the same inputs
-    give the tool's masks voxel for voxel. **params: any ffseg_params field.
+    200 steps, crop and region budgets from memory_bytes as its --memory,
+    workspace_sizing()), so the same inputs give the tool's masks voxel for
+    voxel. **params: any ffseg_params field.
     Returns one uint8 mask per sphere (and the meshes with return_meshes)."""
     spheres = list(spheres)
     if not spheres:
         raise Error(-1, "no sphere given", "segment")
-    if max_roi_voxels is None:
-        max_roi_voxels = min(int(_np.prod(_np.shape(array))), 1 << 26)
+    max_roi_voxels, max_region_voxels, _ = workspace_sizing(
+        len(spheres), mesh_resolution, int(_np.prod(_np.shape(array))), target_mode, max_roi_voxels,
+        max_region_voxels, memory_bytes)
     with Engine(max_objects=len(spheres), mesh_resolution=mesh_resolution,
-                max_roi_voxels=max_roi_voxels) as e:
+                max_roi_voxels=max_roi_voxels, max_region_voxels=max_region_voxels) as e:
         e.set_params(target_mode=target_mode, **params)
         e.set_volume(array, affine, rescale_slope, rescale_intercept)
         for k, (centre, radius) in enumerate(spheres):

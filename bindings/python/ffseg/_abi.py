@@ -45,6 +45,7 @@ class Config(C.Structure):
         ("max_roi_voxels", C.c_int64),
         ("target_mode", C.c_uint32),
         ("reserved1", C.c_uint32),
+        ("max_region_voxels", C.c_int64),  # since 0.6.0
     ]
 
 

@@ -211,13 +211,16 @@ def test_a_run_that_finds_nothing_is_degenerate_not_converged():
         assert e.last_step_info.flags_all == 0
 
 
-def test_region_mask_of_two_objects_in_one_bar():
+@pytest.mark.parametrize("max_region_voxels", [None, 256])
+def test_region_mask_of_two_objects_in_one_bar(max_region_voxels):
     # A binary bar along i with one sphere near each end: after a step the two
     # bounding regions split the bar, never share a voxel, and each holds its
-    # own mesh's voxels.
+    # own mesh's voxels; on voxels, and on cells of 3 voxels when 256 cannot
+    # hold a region's box (max_region_voxels, 0.6.0).
     vol = np.zeros((40, 12, 12), np.uint8)
     vol[4:36, 3:9, 3:9] = 1
-    with ffseg.Engine(max_objects=2, mesh_resolution=6) as e:
+    with ffseg.Engine(max_objects=2, mesh_resolution=6, max_region_voxels=max_region_voxels) as e:
+        assert e.config["max_region_voxels"] == (max_region_voxels or 0)
         e.set_params(target_mode="binary")
         e.set_volume(vol, affine())
         e.init_sphere(0, (10.0, 5.5, 5.5), 2.0)
@@ -311,3 +314,18 @@ def test_a_forced_stall_is_degenerate_and_flagged_stalled():
                 assert e.last_status == ffseg.CONVERGED
                 assert info.object_flags == [0]
                 assert info.far_outward[0] + info.far_inward[0] < 0.05 * nv
+
+
+def test_workspace_sizing_follows_the_tool():
+    # Issue 30: five organs on the abdominal CT resampled to 1 mm fit the
+    # tool's 400 MB (2.4 GB with every crop and region the whole scan); the
+    # 3 mm scan keeps crops and regions of the whole scan.
+    fine, coarse = 366 * 303 * 336, 122 * 101 * 112
+    roi, region, nbytes = ffseg.workspace_sizing(5, 49, fine)
+    assert nbytes <= 400 * 10**6
+    assert roi >= 7766280 and region * 8 >= 3741390  # the liver's largest crop and region box there
+    with ffseg.Engine(max_objects=5, mesh_resolution=12, max_roi_voxels=1 << 16, max_region_voxels=1 << 12) as e:
+        assert e.config["max_region_voxels"] == 1 << 12
+    assert ffseg.workspace_sizing(5, 23, coarse) [:2] == (coarse, coarse)
+    roi, region, nbytes = ffseg.workspace_sizing(5, 49, fine, max_roi_voxels=fine, max_region_voxels=fine)
+    assert (roi, region) == (fine, fine) and nbytes > 400 * 10**6

@@ -12,7 +12,7 @@ use std::os::raw::c_char;
 pub type ffseg_status = i32;
 
 pub const FFSEG_VERSION_MAJOR: u32 = 0;
-pub const FFSEG_VERSION_MINOR: u32 = 5;
+pub const FFSEG_VERSION_MINOR: u32 = 6;
 pub const FFSEG_VERSION_PATCH: u32 = 0;
 pub const FFSEG_VERSION_NUMBER: u32 =
     FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH;
@@ -81,6 +81,9 @@ pub struct ffseg_config {
     pub max_roi_voxels: i64,
     pub target_mode: u32,
     pub reserved1: u32,
+    /// Since 0.6.0: several objects, the voxels one bounding region is marched on
+    /// (0: max_roi_voxels); a larger box is marched on coarser cells.
+    pub max_region_voxels: i64,
 }
 
 #[repr(C)]

@@ -31,7 +31,7 @@ macro_rules! strukt {
 
 fn rust_layout() -> BTreeMap<String, (usize, usize)> {
     let mut m = BTreeMap::new();
-    strukt!(m, ffseg_config, [struct_size, max_objects, mesh_resolution, reserved0, max_roi_voxels, target_mode, reserved1]);
+    strukt!(m, ffseg_config, [struct_size, max_objects, mesh_resolution, reserved0, max_roi_voxels, target_mode, reserved1, max_region_voxels]);
     strukt!(m, ffseg_params, [struct_size, target_mode, lambda_laplacian, lambda_position,
         lambda_uniform, step_size, flip_tau, search_range_mm, search_step_mm, convergence_mm,
         diffusion_iterations, consecutive_background, smoothing_iterations, bin_min_count,

@@ -186,6 +186,14 @@ fn dropping_the_engine_frees_the_workspace_for_another() {
 
 #[test]
 fn two_objects_in_a_bar_get_disjoint_bounding_regions() {
+    // On voxels, and on cells of 3 voxels when 256 cannot hold a region's box
+    // (config.max_region_voxels, 0.6.0).
+    for &max_region in &[0i64, 256] {
+        disjoint_regions(max_region);
+    }
+}
+
+fn disjoint_regions(max_region: i64) {
     // A bar of ones along i, one sphere near each end, binary targets.
     let dims = [40usize, 12, 12];
     let mut bar = vec![0u8; dims[0] * dims[1] * dims[2]];
@@ -198,6 +206,7 @@ fn two_objects_in_a_bar_get_disjoint_bounding_regions() {
     }
     let mut cfg = small_config(6);
     cfg.max_objects = 2;
+    cfg.max_region_voxels = max_region;
     let mut ws = Workspace::new(&cfg).unwrap();
     let mut e = Engine::new(&mut ws).unwrap();
     let mut p = Params::default();
