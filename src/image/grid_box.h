@@ -15,6 +15,18 @@
 // is the box's nearest-point map along index axes, the identity inside.
 // Searching along the face instead (a ray that meets the box slides on it)
 // was measured and lost Dice on the same scans (BENCHMARKS.md section 10).
+//
+// The clamp puts a point a hair inside the face (kInset of a voxel: 3 nm on
+// a 3 mm grid), not on it. Exactly on the face, whether the point lies in
+// the grid is decided by the last bit of each later world -> index map (the
+// searches' inside tests, nearest-voxel sampling rounding -0.5 or n - 0.5),
+// and that bit depends on how the affine was written: the same CT read from
+// its DICOM series (decimal origin and spacings, 1e-10 off the NIfTI's)
+// sent the cut liver's face vertices to the other side of those tests and
+// its label map differed from the NIfTI run's in 81 voxels. kInset is ten
+// orders of magnitude above those roundings and far below anything the
+// image resolves; the box stays symmetric, the same arithmetic at both ends
+// of every axis, so a flipped or permuted storage order clamps alike.
 #pragma once
 #include <cstdint>
 
@@ -28,22 +40,38 @@ class GridBox {
     for (int a = 0; a < 3; ++a) hi_[a] = double(dims[a]) - 0.5;
   }
 
+  // Where clamp() puts a point beyond a face: this share of a voxel inside it.
+  static constexpr double kInset = 1e-6;
+
   bool contains(const double p[3]) const {
     for (int a = 0; a < 3; ++a)
       if (!(p[a] >= kLo && p[a] <= hi_[a])) return false;
     return true;
   }
 
-  // Moves index-space point p onto the box (per axis); true when it moved.
-  // A NaN coordinate is left as it is (the callers test finiteness).
+  // True when index-space point p lies within kFaceTolerance of a face of
+  // the box or beyond it: where a search that ran out of the grid put its
+  // target (its bisection ends within step / 256, 0.002 voxel by default,
+  // of the face).
+  static constexpr double kFaceTolerance = 0.01;
+  bool at_face(const double p[3]) const {
+    for (int a = 0; a < 3; ++a)
+      if (!(p[a] > kLo + kFaceTolerance && p[a] < hi_[a] - kFaceTolerance)) return true;
+    return false;
+  }
+
+  // Moves index-space point p into the box, kInset inside each face it lay
+  // beyond or within kInset of (per axis); true when it moved. A NaN
+  // coordinate is left as it is (the callers test finiteness).
   bool clamp(double p[3]) const {
     bool moved = false;
     for (int a = 0; a < 3; ++a) {
-      if (p[a] < kLo) {
-        p[a] = kLo;
+      const double lo = kLo + kInset, hi = hi_[a] - kInset;
+      if (p[a] < lo) {
+        p[a] = lo;
         moved = true;
-      } else if (p[a] > hi_[a]) {
-        p[a] = hi_[a];
+      } else if (p[a] > hi) {
+        p[a] = hi;
         moved = true;
       }
     }
@@ -55,8 +83,8 @@ class GridBox {
   double hi_[3];
 };
 
-// Moves world point w (mm) onto vol's grid box; true when it moved. A point
-// inside keeps its bits.
+// Moves world point w (mm) into vol's grid box (GridBox::clamp); true when it
+// moved. A point inside, kInset clear of the faces, keeps its bits.
 inline bool clamp_to_grid(const VolumeView& vol, double w[3]) {
   double p[3];
   vol.world_to_index(w, p);
