@@ -311,7 +311,14 @@ Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, do
   // update as it will be. The guard's held vertices move along the segment
   // from their old positions, inside the box, to these: the box being
   // convex, they stay inside too.
+  // A mesh with no vertex in the box is a caller's sphere around the whole
+  // scan: clamped, it would be crushed onto the box's edges and corners
+  // (degenerate triangles, a mask of a third of the grid instead of the
+  // whole-grid result the FILLS_GRID flag reports); it moves as before.
+  bool any_inside = false;
   if (grid)
+    for (uint32_t v = 0; v < nv && !any_inside; ++v) any_inside = in_grid(*grid, x + 3 * size_t(v));
+  if (any_inside)
     for (uint32_t v = 0; v < nv; ++v) {
       double w[3] = {s.rhs[v], s.rhs[size_t(nv) + v], s.rhs[size_t(2) * nv + v]};
       if (clamp_to_grid(*grid, w))
