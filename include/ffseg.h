@@ -299,7 +299,11 @@ FFSEG_API ffseg_status ffseg_sample(const ffseg_engine* e, const double point_mm
  * world mm), replacing any previous mesh of that object. Errors: MISUSE (no
  * volume yet), OBJECT_OUT_OF_RANGE, INVALID_ARGUMENT (radius <= 0 or
  * non-finite values), SPHERE_OUTSIDE (the ball does not meet the grid). On
- * failure the object keeps the mesh it had (or stays unplaced). */
+ * failure the object keeps the mesh it had (or stays unplaced).
+ * After a step no vertex lies beyond the grid's box (voxel centres +- half a
+ * voxel; a partial scan's organ ends on the box's face): a sphere that reaches
+ * beyond it is put onto the box by the first step (as far as the step guard
+ * lets it), and every step keeps the vertices there. */
 FFSEG_API ffseg_status ffseg_init_sphere(ffseg_engine* e, uint32_t object,
                                          const double center_mm[3], double radius_mm);
 

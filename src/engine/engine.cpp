@@ -443,7 +443,7 @@ Err Engine::step(StepReport* r) {
       if (placed > 1)
         for (uint32_t j = 0; j < N; ++j)
           if (j != i && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
-      const Err e = deform_step(mesh_, p, o.convergence.moving_threshold(rule()), o.x, o.step, scratch_,
+      const Err e = deform_step(mesh_, p, &vol_, o.convergence.moving_threshold(rule()), o.x, o.step, scratch_,
                                 scratch_.obstacles, others, r->stage_us, msg_, kMsgLen);
       if (e != Err::ok) return e;
     }

@@ -7,6 +7,7 @@
 #include "binary_search.h"
 #include "diffusion.h"
 #include "flips.h"
+#include "grid_box.h"
 #include "fold_prevention.h"
 #include "intensity_search.h"
 #include "laplacian_system.h"
@@ -193,7 +194,16 @@ void search_correspondences(const CubeSphere& m, const VolumeView& vol, const Pa
   const double* sp = vol.spacing();
   const double voxel = std::fmax(sp[0], std::fmax(sp[1], sp[2]));
   // A border vertex's target is another object's region, where a neighbour
-  // holds it: a rest there is no stall.
+  // holds it: a rest there is no stall. Nor is a target on the grid's face
+  // (grid_box.h; the search ended there because the scan does, beyond reads
+  // as background): the organ is cut there, not bounded, and the mesh's
+  // flat cap on the face meets its walls in a rim the smoothness terms
+  // round, so the rim's vertices rest short of the face's edge however long
+  // the mesh steps (the shared CT's liver at 1 mm, n = 12, cut by the top
+  // slice: at rest 45 such vertices up to 8 mm below the face; counted, its
+  // net far share was 0.104, over the stall threshold, and it was reported
+  // stalled; not counted, 0.052).
+  const GridBox box(vol.dims());
   st.far_out = st.far_in = 0;
   for (uint32_t v = 0; v < nv; ++v) {
     if (!st.has[v] || (st.border && st.border[v])) continue;
@@ -204,6 +214,9 @@ void search_correspondences(const CubeSphere& m, const VolumeView& vol, const Pa
       dn += q * normals[3 * size_t(v) + a];
     }
     if (d2 <= voxel * voxel) continue;
+    double t[3];
+    vol.world_to_index(st.target + 3 * size_t(v), t);
+    if (box.at_face(t)) continue;
     st.far_out += dn > 0;
     st.far_in += dn <= 0;
   }
@@ -241,9 +254,9 @@ void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, O
   st.folds_avoided = prevent_folds(m, x, st.disp, st.has, p.flip_tau, p.step_size, s.folds);
 }
 
-Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x, ObjectStep& st, StepScratch& s,
-                const double* const* others, uint32_t other_count, uint64_t stage_us[kStageCount], char* msg,
-                size_t msg_len) {
+Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, double* x,
+                ObjectStep& st, StepScratch& s, const double* const* others, uint32_t other_count,
+                uint64_t stage_us[kStageCount], char* msg, size_t msg_len) {
   const uint32_t nv = m.nv;
   uint64_t t0 = now_us(), t1;
   auto lap = [&](int stage) {
@@ -291,6 +304,25 @@ Err deform_step(const CubeSphere& m, const Params& p, double still_mm, double* x
     if (!std::isfinite(s.rhs[q])) {
       std::snprintf(msg, msg_len, "step: the solve produced non-finite positions; mesh unchanged");
       return Err::numeric;
+    }
+  // The mesh ends at the scan's box (grid_box.h): a solve that carries a
+  // vertex beyond it (the smoothness terms round a cap pressed on a face)
+  // puts it back on the face, before the guard, which then checks the
+  // update as it will be. The guard's held vertices move along the segment
+  // from their old positions, inside the box, to these: the box being
+  // convex, they stay inside too.
+  // A mesh with no vertex in the box is a caller's sphere around the whole
+  // scan: clamped, it would be crushed onto the box's edges and corners
+  // (degenerate triangles, a mask of a third of the grid instead of the
+  // whole-grid result the FILLS_GRID flag reports); it moves as before.
+  bool any_inside = false;
+  if (grid)
+    for (uint32_t v = 0; v < nv && !any_inside; ++v) any_inside = in_grid(*grid, x + 3 * size_t(v));
+  if (any_inside)
+    for (uint32_t v = 0; v < nv; ++v) {
+      double w[3] = {s.rhs[v], s.rhs[size_t(nv) + v], s.rhs[size_t(2) * nv + v]};
+      if (clamp_to_grid(*grid, w))
+        for (int a = 0; a < 3; ++a) s.rhs[size_t(a) * nv + v] = w[a];
     }
   // Several objects: the others' meshes are obstacles the update may not
   // touch (the hard no-overlap guarantee); the guard holds back the
