@@ -97,3 +97,26 @@ def test_choosing_set_at_3mm_holds_its_figures_and_the_gallbladder_stays_near_it
         if organ == 4:
             assert ratio <= 6.0  # 4.6x measured; 21.5x before
     assert sum(dice.values()) / len(dice) >= 0.63  # 0.646 measured
+
+
+def test_liver_and_vena_cava_together_at_3mm_fig_6_5_share_no_voxel(tmp_path):
+    """Thesis fig. 6.5's pair on the shared CT: the liver and the vena cava
+    in one engine (chapter 6). What holds today is asserted: no shared voxel,
+    and the liver within 0.04 of its Dice alone (0.826 against 0.854
+    measured). The thesis' claim, the liver better with the vena cava than
+    without, does not hold on this non-contrast CT, where the two are one
+    grey level (41 +- 16 and 46 +- 17 HU): BENCHMARKS section 11."""
+    lab = os.path.join(abdomen_ct.DATA, "labels.nii.gz")
+    out = str(tmp_path / "pair")
+    r = run_cli("segment", os.path.join(abdomen_ct.DATA, "ct.nii.gz"), "--sphere-from-label", f"{lab}:5",
+                "--sphere-from-label", f"{lab}:8", "--truth", lab, "--names", "liver,vena_cava", "--out", out,
+                "--quiet", check=False)
+    assert r.returncode in (0, 6), r.stderr
+    rep = json.load(open(os.path.join(out, "report.json")))
+    assert rep["shared_voxels"] == 0
+    liver, cava = rep["objects"]
+    d_alone, _ = organ_3mm(5, str(tmp_path / "alone"))
+    print(f"together: liver {liver['metrics']['dice']:.3f} (alone {d_alone:.3f}), "
+          f"vena cava {cava['metrics']['dice']:.3f}")
+    assert liver["metrics"]["dice"] >= d_alone - 0.04
+    assert cava["metrics"]["dice"] >= 0.35  # 0.421 measured
