@@ -482,14 +482,36 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
     The defaults are the `ffseg segment` tool's (grey-level target, n = 33,
     200 steps, crop and region budgets from memory_bytes as its --memory,
     workspace_sizing()), so the same inputs give the tool's masks voxel for
-    voxel. **params: any ffseg_params field.
+    voxel. memory_bytes is where the workspace starts: an object that outgrows
+    the crop or region it gives makes the run start again with twice it (a
+    RuntimeWarning says so); max_roi_voxels / max_region_voxels given are
+    fixed sizes (Error ROI_TOO_LARGE). **params: any ffseg_params field.
     Returns one uint8 mask per sphere (and the meshes with return_meshes)."""
     spheres = list(spheres)
     if not spheres:
         raise Error(-1, "no sphere given", "segment")
-    max_roi_voxels, max_region_voxels, _ = workspace_sizing(
-        len(spheres), mesh_resolution, int(_np.prod(_np.shape(array))), target_mode, max_roi_voxels,
-        max_region_voxels, memory_bytes)
+    # As the tool: memory_bytes is where the workspace starts; an object that
+    # outgrows the sizes it gave makes the run start again with twice it.
+    # Sizes given here are fixed (ROI_TOO_LARGE is raised).
+    voxels = int(_np.prod(_np.shape(array)))
+    given = max_roi_voxels is not None or max_region_voxels is not None
+    while True:
+        roi, region, _ = workspace_sizing(len(spheres), mesh_resolution, voxels, target_mode, max_roi_voxels,
+                                          max_region_voxels, memory_bytes)
+        try:
+            return _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, roi, region,
+                                 rescale_slope, rescale_intercept, return_meshes, params)
+        except Error as ex:
+            whole = min(voxels, 1 << 26)
+            if ex.name != "ROI_TOO_LARGE" or given or (roi >= whole and region >= whole):
+                raise
+            memory_bytes *= 2
+            _warnings.warn(f"ffseg.segment: an object outgrew the memory budget ({ex.message}); starting again "
+                           f"with memory_bytes = {memory_bytes}", RuntimeWarning, stacklevel=2)
+
+
+def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, max_roi_voxels,
+                  max_region_voxels, rescale_slope, rescale_intercept, return_meshes, params):
     with Engine(max_objects=len(spheres), mesh_resolution=mesh_resolution,
                 max_roi_voxels=max_roi_voxels, max_region_voxels=max_region_voxels) as e:
         e.set_params(target_mode=target_mode, **params)
@@ -504,7 +526,7 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
             _warnings.warn("ffseg.segment: some result is no segmentation (object_flags "
                            f"{flags.object_flags}: 1 = no vertex ever found a boundary, "
                            "2 = the object fills most of the grid, 4 = it stalled short of its "
-                           "boundary)", RuntimeWarning, stacklevel=2)
+                           "boundary)", RuntimeWarning, stacklevel=3)
         masks = [e.rasterize(k) for k in range(len(spheres))]
         if return_meshes:
             return masks, [e.extract_mesh(k) for k in range(len(spheres))]

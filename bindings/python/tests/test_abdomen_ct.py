@@ -147,3 +147,19 @@ def test_an_organ_that_outgrows_the_memory_budget_is_segmented_with_more_not_ref
     rf = run_cli(*base, "--max-roi-voxels", "20000", "--out", str(tmp_path / "fixed"), check=False)
     assert rf.returncode == 4, rf.stderr
     assert "max_roi_voxels" in rf.stderr and not (tmp_path / "fixed" / "report.json").exists()
+
+
+def test_python_segment_starts_again_with_more_memory_as_the_tool_does():
+    nib = pytest.importorskip("nibabel")
+    import numpy as np
+    import ffseg
+    img = nib.load(os.path.join(abdomen_ct.DATA, "ct.nii.gz"))
+    ct = np.asarray(img.dataobj).astype(np.int16)
+    sphere = ((65.04, 209.32, 361.30), 7.5)  # the gallbladder's protocol sphere
+    ref = ffseg.segment(ct, img.affine, [sphere], mesh_resolution=12)
+    with pytest.warns(RuntimeWarning, match="outgrew the memory budget"):
+        small = ffseg.segment(ct, img.affine, [sphere], mesh_resolution=12, memory_bytes=2_000_000)
+    assert np.array_equal(ref[0], small[0]) and ref[0].sum() > 0
+    with pytest.raises(ffseg.Error) as ex:
+        ffseg.segment(ct, img.affine, [sphere], mesh_resolution=12, max_roi_voxels=2000)
+    assert ex.value.name == "ROI_TOO_LARGE"
