@@ -200,6 +200,8 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
     estimate_noise(vol);
   } else {  // not needed: kappa is given and no voxel can be non-finite
     sigma_n_ = p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
+    fence_lo_ = -INFINITY;
+    fence_hi_ = INFINITY;
   }
   // Copy the raw region in.
   double vmin = INFINITY, vmax = -INFINITY;
@@ -263,6 +265,8 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
   });
   if (ns == 0) {
     p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
+    fence_lo_ = -INFINITY;
+    fence_hi_ = INFINITY;
     sigma_n_ = 0;
     return;
   }
