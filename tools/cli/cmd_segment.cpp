@@ -238,13 +238,13 @@ struct EngineRun {
   // Seconds: every pass's engine setup; the last pass's steps (as stage_us).
   double t_setup = 0, t_stepping = 0;
   // The workspace budget the engines are sized by: --memory, doubled each
-  // time an organ outgrew a crop the default budget gave it (run_engine).
+  // time an organ outgrew a crop or region the budget gave it (run_engine).
   uint64_t memory_bytes = 0;
   bool budget_reduced = false;  // the last engine's sizes are below the scan's (workspace_budget.h)
   int budget_raises = 0;
 };
 
-// An organ outgrew the crop or region the default memory budget gave it
+// An organ outgrew the crop or region the memory budget gave it
 // (FFSEG_ERR_ROI_TOO_LARGE with sizes the budget chose): run_engine starts
 // the run again with a larger budget.
 struct OutgrewBudget {
@@ -503,7 +503,7 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
 }
 
 // The run, from the start again with twice the memory budget each time an
-// organ outgrows what the default budget gave it (OutgrewBudget): 16 organs
+// organ outgrows what the budget gave it (OutgrewBudget): 16 organs
 // of the abdominal CT at 1 mm outgrow 400 MB (a liver crop of 4.2 M voxels
 // against 3.4 M), which ended the run with exit 4 after a minute's work.
 // Once the budget holds whole-scan buffers the sizes are no longer the
