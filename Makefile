@@ -75,6 +75,11 @@ MRI := /usr/share/mricron/templates
 NUCLEI_LABELS := 71 72 73 74 75 76 77 78
 NUCLEI_NAMES := caudate_L,caudate_R,putamen_L,putamen_R,pallidum_L,pallidum_R,thalamus_L,thalamus_R
 DEMO_OUT ?= out
+# The shared abdominal CT (beside the repository, not in it): liver, spleen,
+# kidneys right and left, vena cava (TotalSegmentator v1 ids).
+ABDOMEN := ../shared/data/abdomen_ct
+ABDOMEN_LABELS := 5 1 2 3 8
+ABDOMEN_NAMES := liver,spleen,kidney_R,kidney_L,vena_cava
 demo: deps
 	$(MAKE) build
 	mkdir -p $(DEMO_OUT)
@@ -86,7 +91,14 @@ demo: deps
 	@./$(BUILD)/ffseg segment $(MRI)/ch2.nii.gz $(foreach l,$(NUCLEI_LABELS),--sphere-from-label $(MRI)/aal.nii.gz:$(l)) \
 	  --truth $(MRI)/aal.nii.gz --names $(NUCLEI_NAMES) \
 	  --regions $(DEMO_OUT)/nuclei_regions.nii.gz --out $(DEMO_OUT)/nuclei --force --quiet
-	@echo; echo "demo: outputs (meshes, labels.nii.gz, overlay.png, report.json) in $(DEMO_OUT)/putamen_L, $(DEMO_OUT)/brain and $(DEMO_OUT)/nuclei (bounding regions: $(DEMO_OUT)/nuclei_regions.nii.gz)"
+	@echo; if [ -f $(ABDOMEN)/ct.nii.gz ]; then \
+	  echo "demo: five organs of the abdominal CT ($(ABDOMEN), 3 mm) together in one engine (a stalled organ"; \
+	  echo "      is warned about and written, exit 6: the demo goes on)"; \
+	  ./$(BUILD)/ffseg segment $(ABDOMEN)/ct.nii.gz $(foreach l,$(ABDOMEN_LABELS),--sphere-from-label $(ABDOMEN)/labels.nii.gz:$(l)) \
+	    --truth $(ABDOMEN)/labels.nii.gz --names $(ABDOMEN_NAMES) --out $(DEMO_OUT)/abdomen --force --quiet \
+	    || [ $$? -eq 6 ]; \
+	  else echo "demo: $(ABDOMEN) is absent (the shared data beside the repository): the abdominal run is skipped"; fi
+	@echo; echo "demo: outputs (meshes, labels.nii.gz, overlay.png, report.json) in $(DEMO_OUT)/putamen_L, $(DEMO_OUT)/brain, $(DEMO_OUT)/nuclei (bounding regions: $(DEMO_OUT)/nuclei_regions.nii.gz) and $(DEMO_OUT)/abdomen"
 
 # The Python tests (also part of `make test` as ctest's `python` test).
 check-python: deps
