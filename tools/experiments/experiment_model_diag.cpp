@@ -26,9 +26,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <vector>
 
+#include "cli/cli.h"
 #include "intensity_model.h"
 #include "metrics.h"
 #include "nifti.h"
@@ -62,18 +62,6 @@ TEST_CASE("colin27 model diagnostic") {
   REQUIRE(vol.assign(d, msg, sizeof msg));
   const double gamma = std::getenv("FFSEG_GAMMA") ? std::atof(std::getenv("FFSEG_GAMMA")) : 0.2;
   const double sigf = std::getenv("FFSEG_SIGF") ? std::atof(std::getenv("FFSEG_SIGF")) : 0.04;
-  // Label maps come as any voxel type (the abdominal CT's is float64).
-  auto label_at = [&](size_t i) -> long {
-    const uint8_t* q = aal.data.data() + i * size_t(aal.bytes_per_voxel);
-    switch (aal.voxel_type) {
-      case ffseg_tools::kNiftiVoxU8: return *q;
-      case ffseg_tools::kNiftiVoxI16: { int16_t v; std::memcpy(&v, q, 2); return v; }
-      case ffseg_tools::kNiftiVoxU16: { uint16_t v; std::memcpy(&v, q, 2); return v; }
-      case ffseg_tools::kNiftiVoxI32: { int32_t v; std::memcpy(&v, q, 4); return v; }
-      case ffseg_tools::kNiftiVoxF32: { float v; std::memcpy(&v, q, 4); return std::lround(v); }
-      default: { double v; std::memcpy(&v, q, 8); return std::lround(v); }
-    }
-  };
   std::vector<int> labels = {73, 74, 77, 78, 71, 72, 37, 38};
   if (const char* ids = std::getenv("FFSEG_IDS")) {
     labels.clear();
@@ -85,9 +73,10 @@ TEST_CASE("colin27 model diagnostic") {
   }
   std::printf("| AAL | comps | competitors | truth accepted | grown Dice | grown ml / true ml | accepted in 3 mm shell |\n|---|---|---|---|---|---|---|\n");
   for (int label : labels) {
-    const size_t N = size_t(aal.dims[0]) * aal.dims[1] * aal.dims[2];
+    // Label maps come as any voxel type (the abdominal CT's is float64).
+    const size_t N = size_t(aal.voxel_count());
     std::vector<uint8_t> truth(N);
-    for (size_t i = 0; i < N; ++i) truth[i] = label_at(i) == label;
+    ffseg_cli::for_each_stored(aal, [&](size_t i, double v) { truth[i] = std::lround(v) == label; });
     std::array<int, 3> ijk{};
     double depth = 0;
     REQUIRE(ffseg_tools::find_deepest_voxel(truth.data(), aal.dims, aal.spacing, &ijk, &depth));
