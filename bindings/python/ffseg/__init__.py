@@ -428,8 +428,12 @@ def _u32(x, what):
 DEFAULT_MEMORY_BYTES = 400 * 10**6  # the tool's --memory default
 
 
+# The largest crop the tool sizes to the whole scan (tools/cli: kMaxRoiCap).
+ROI_CAP = 1 << 26
+
+
 def workspace_sizing(max_objects, mesh_resolution, voxels, target_mode="intensity", max_roi_voxels=None,
-                     max_region_voxels=None, memory_bytes=DEFAULT_MEMORY_BYTES, roi_cap=1 << 26):
+                     max_region_voxels=None, memory_bytes=DEFAULT_MEMORY_BYTES, roi_cap=ROI_CAP):
     """The `ffseg segment` tool's sizes (tools/cli/workspace_budget.h) for an
     engine of max_objects objects on a scan of `voxels` voxels: crops and
     regions hold the whole scan (at most roi_cap) when that workspace fits
@@ -502,7 +506,7 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
             return _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, roi, region,
                                  rescale_slope, rescale_intercept, return_meshes, params)
         except Error as ex:
-            whole = min(voxels, 1 << 26)
+            whole = min(voxels, ROI_CAP)
             if ex.name != "ROI_TOO_LARGE" or given or (roi >= whole and region >= whole):
                 raise
             memory_bytes *= 2
