@@ -163,20 +163,32 @@ void fill_speed(const VolumeView& vol, const RegionSpeed& sp, const CellBox& cb,
 bool region_cells(const int64_t lo[3], const int64_t n[3], const double h[3], int64_t max_cells, double max_cell_mm,
                   int64_t f[3]) {
   const double hmin = std::fmin(h[0], std::fmin(h[1], h[2]));
-  for (int64_t c = 1;; ++c) {
+  double c = 1;
+  // Each pass coarsens some axis still in several cells (f_a <= lo_a + n_a),
+  // but for rounding at c beyond 2^53: a bound, never met on a real grid.
+  const int64_t passes = lo[0] + n[0] + lo[1] + n[1] + lo[2] + n[2] + 64;
+  for (int64_t pass = 0; pass < passes; ++pass) {
     double count = 1;
-    bool coarsest = true;  // every axis in one or two cells: coarser changes nothing
+    int64_t cells[3];
     for (int a = 0; a < 3; ++a) {
-      const long r = std::lround(double(c) * hmin / h[a]);
-      f[a] = r < 1 ? 1 : int64_t(r);
+      const double r = std::round(c * hmin / h[a]);
+      f[a] = r < 1 ? 1 : r > double(lo[a] + n[a]) ? lo[a] + n[a] : int64_t(r);  // lo + n: one cell
       if (double(f[a]) * h[a] > max_cell_mm && f[a] > 1) return false;
-      const int64_t cells = (lo[a] + n[a] - 1) / f[a] - lo[a] / f[a] + 1;
-      count *= double(cells);
-      coarsest = coarsest && f[a] >= n[a];
+      cells[a] = (lo[a] + n[a] - 1) / f[a] - lo[a] / f[a] + 1;
+      count *= double(cells[a]);
     }
     if (count <= double(max_cells)) return true;
-    if (coarsest) return false;
+    // Only a coarser axis still in more than one cell can lower the count:
+    // go straight to the next c at which one of them coarsens, so that a
+    // grid whose spacings differ by orders of magnitude is not walked one c
+    // at a time (1e-8 mm against 1 mm took 12 s).
+    double next = HUGE_VAL;
+    for (int a = 0; a < 3; ++a)
+      if (cells[a] > 1) next = std::fmin(next, std::ceil((double(f[a]) + 0.5) * h[a] / hmin));
+    if (!(next < HUGE_VAL)) return false;
+    c = std::fmax(std::nextafter(c + 1, HUGE_VAL), next);
   }
+  return false;
 }
 
 RegionStatus compute_region(const CubeSphere& m, const double* x, const VolumeView& vol, const RegionSpeed& speed,

@@ -334,6 +334,14 @@ TEST_CASE("regions: the cells of a box are the finest that fit, near cubic in mm
   // Coarser than the limit: refused.
   CHECK_FALSE(ffseg::region_cells(lo, n, iso, 1000, 5, f));
   CHECK(ffseg::region_cells(lo, n, iso, 1000, 12, f));
+  // Spacings orders of magnitude apart (a hostile affine): the answer comes
+  // at once, the fine axis in one cell (a walk one step of c at a time took
+  // 12 s at 1e-8 mm and never ended at 1e-12).
+  const int64_t flat[3] = {4, 50, 50};
+  const double wild[3] = {1e-12, 1, 1};
+  CHECK(ffseg::region_cells(lo, flat, wild, 100, 1e300, f));
+  CHECK((f[0] == 9 && f[1] == 6 && f[2] == 6));  // lo 5 + 4 voxels: one cell of 9
+  CHECK_FALSE(ffseg::region_cells(lo, flat, wild, 100, 4.5, f));
 }
 
 TEST_CASE("regions: a cell grid maps each cell to the centre of its voxels, both ways") {
