@@ -172,7 +172,7 @@ bool region_cells(const int64_t lo[3], const int64_t n[3], const double h[3], in
     int64_t cells[3];
     for (int a = 0; a < 3; ++a) {
       const double r = std::round(c * hmin / h[a]);
-      f[a] = r < 1 ? 1 : r > double(lo[a] + n[a]) ? lo[a] + n[a] : int64_t(r);  // lo + n: one cell
+      f[a] = !(r >= 1) ? 1 : r > double(lo[a] + n[a]) ? lo[a] + n[a] : int64_t(r);  // NaN: 1; lo + n: one cell
       if (double(f[a]) * h[a] > max_cell_mm && f[a] > 1) return false;
       cells[a] = (lo[a] + n[a] - 1) / f[a] - lo[a] / f[a] + 1;
       count *= double(cells[a]);

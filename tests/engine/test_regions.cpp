@@ -342,6 +342,11 @@ TEST_CASE("regions: the cells of a box are the finest that fit, near cubic in mm
   CHECK(ffseg::region_cells(lo, flat, wild, 100, 1e300, f));
   CHECK((f[0] == 9 && f[1] == 6 && f[2] == 6));  // lo 5 + 4 voxels: one cell of 9
   CHECK_FALSE(ffseg::region_cells(lo, flat, wild, 100, 4.5, f));
+  // Spacings that overflowed to infinity: no cell size can be derived (c h_min
+  // / h_a is NaN), so the voxels stay single cells, here too many.
+  const double inf = HUGE_VAL, lost[3] = {inf, inf, inf};
+  CHECK_FALSE(ffseg::region_cells(lo, flat, lost, 100, 1e300, f));
+  CHECK((f[0] == 1 && f[1] == 1 && f[2] == 1));
 }
 
 TEST_CASE("regions: a cell grid maps each cell to the centre of its voxels, both ways") {
