@@ -61,6 +61,46 @@ bool folded(const double a[3], const double b[3]) {
   return (l > 0 ? dot / __builtin_sqrt(l) : -1.0) < kFoldCos;
 }
 
+double fold_cos(const double a[3], const double b[3]) {
+  const double dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const double l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) * (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+  return l > 0 ? dot / __builtin_sqrt(l) : -1.0;
+}
+
+// A triangle thinning into a needle: its altitude below kNeedle times its
+// longest edge at the tested positions, and its area shrinking. Such a
+// triangle is on its way through zero area, a flip, and before that its
+// normal is no longer defined by the floats the caller extracts (a tube's
+// wall kept needles 4e-5 mm high on 1.6 mm edges, read as a fold of 120.1
+// degrees where the guard's doubles saw 119.9). It counts as the turn of that
+// triangle.
+constexpr double kNeedle = 0.01;
+
+bool needle_in_making(const double n0[3], const double n1[3], const double* xs, const uint32_t* id) {
+  const double l1 = n1[0] * n1[0] + n1[1] * n1[1] + n1[2] * n1[2];
+  if (!(l1 < n0[0] * n0[0] + n0[1] * n0[1] + n0[2] * n0[2])) return false;
+  double e = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double* a = xs + 3 * size_t(id[k]);
+    const double* b = xs + 3 * size_t(id[(k + 1) % 3]);
+    const double d2 = (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
+    e = d2 > e ? d2 : e;
+  }
+  // |n1| = altitude x longest edge: altitude < kNeedle e  <=>  l1 < kNeedle^2 e^2.
+  return l1 < kNeedle * kNeedle * e * e;
+}
+
+// A fold at the tested positions (new normals a, b) is an offence unless the
+// same edge was folded at the old positions (c, d) already and does not fold
+// further: a fold that was already there may stay (the guard cannot undo it),
+// but an edge held inside the margin between kFoldCos and the promise's -0.5
+// must not creep past it step after step (a tube's sliver went from -0.4995
+// to -0.5012 that way).
+bool new_fold(const double a[3], const double b[3], const double c[3], const double d[3]) {
+  if (!folded(a, b)) return false;
+  return !folded(c, d) || fold_cos(a, b) < fold_cos(c, d);
+}
+
 }  // namespace
 
 namespace {
@@ -81,7 +121,8 @@ uint8_t face_offences(const CubeSphere& m, uint32_t f, const double* x_old, cons
     double n0[3], n1[3];
     tri_normal(x_old + 3 * size_t(id[0]), x_old + 3 * size_t(id[1]), x_old + 3 * size_t(id[2]), n0);
     tri_normal(xs + 3 * size_t(id[0]), xs + 3 * size_t(id[1]), xs + 3 * size_t(id[2]), n1);
-    if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0)) bits |= uint8_t(kTurn << t);
+    if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0) || needle_in_making(n0, n1, xs, id))
+      bits |= uint8_t(kTurn << t);
   }
   const uint32_t* q = m.faces + 4 * size_t(f);
   const int k = q[3] == kNone ? 3 : 4;
@@ -96,7 +137,7 @@ uint8_t face_offences(const CubeSphere& m, uint32_t f, const double* x_old, cons
       double c[3], d[3];
       tri_normal(x_old + 3 * size_t(tri[0]), x_old + 3 * size_t(tri[1]), x_old + 3 * size_t(tri[2]), c);
       tri_normal(x_old + 3 * size_t(tri[3]), x_old + 3 * size_t(tri[4]), x_old + 3 * size_t(tri[5]), d);
-      if (!folded(c, d)) bits |= kQuadFold;
+      if (new_fold(a, b, c, d)) bits |= kQuadFold;
     }
   }
   for (int e = 0; e < k; ++e) {
@@ -107,9 +148,10 @@ uint8_t face_offences(const CubeSphere& m, uint32_t f, const double* x_old, cons
     split_edge_normal(tn, ntn, a, b, xs, nf);
     edge_triangle_normal(m, g, b, a, xs, ng);
     if (!folded(nf, ng)) continue;
-    edge_triangle_normal(m, f, a, b, x_old, nf);
-    edge_triangle_normal(m, g, b, a, x_old, ng);
-    if (!folded(nf, ng)) bits |= uint8_t(kEdgeFold << e);
+    double of[3], og[3];
+    edge_triangle_normal(m, f, a, b, x_old, of);
+    edge_triangle_normal(m, g, b, a, x_old, og);
+    if (new_fold(nf, ng, of, og)) bits |= uint8_t(kEdgeFold << e);
   }
   return bits;
 }
@@ -219,16 +261,15 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
       tri_normal(xs + 3 * size_t(id[0]), xs + 3 * size_t(id[1]), xs + 3 * size_t(id[2]), n1s);
       n1 = n1s;
     }
-    if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0)) bits |= uint8_t(kTurn << t);
+    if (!(n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] > 0) || needle_in_making(n0, n1, xs, id))
+      bits |= uint8_t(kTurn << t);
   }
   const uint32_t* q = m.faces + 4 * size_t(f);
   const int k = q[3] == kNone ? 3 : 4;
   uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
   const int ntn = face_split(m, f, alt_new, tn);
   if (nt == 2) {
-    if (folded(nn, nn + 3)) {
-      if (!folded(no, no + 3)) bits |= kQuadFold;
-    }
+    if (new_fold(nn, nn + 3, no, no + 3)) bits |= kQuadFold;
   }
   for (int e = 0; e < k; ++e) {
     const uint32_t g = m.fadj[4 * size_t(f) + e];
@@ -240,9 +281,9 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
     const double* ng = cached_edge_normal(tg, ntg, b, a, ts.face_n_new + 6 * size_t(g));
     if (!folded(nf, ng)) continue;
     const int nto = face_split(m, g, ts.face_alt_old[g], tg);
-    nf = cached_edge_normal(tri, nt, a, b, no);
-    ng = cached_edge_normal(tg, nto, b, a, ts.face_n_old + 6 * size_t(g));
-    if (!folded(nf, ng)) bits |= uint8_t(kEdgeFold << e);
+    const double* of = cached_edge_normal(tri, nt, a, b, no);
+    const double* og = cached_edge_normal(tg, nto, b, a, ts.face_n_old + 6 * size_t(g));
+    if (new_fold(nf, ng, of, og)) bits |= uint8_t(kEdgeFold << e);
   }
   return bits;
 }

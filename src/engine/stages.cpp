@@ -11,6 +11,7 @@
 #include "fold_prevention.h"
 #include "intensity_search.h"
 #include "laplacian_system.h"
+#include "loop_spacing.h"
 #include "normals.h"
 #include "step_guard.h"
 
@@ -305,6 +306,14 @@ Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, do
       std::snprintf(msg, msg_len, "step: the solve produced non-finite positions; mesh unchanged");
       return Err::numeric;
     }
+  // Binary targets: the loops re-spaced along themselves (loop_spacing.h), so
+  // that a mesh growing into a tube or horn brings vertices into it. Grey
+  // levels do not: there the same freedom follows the model out of the
+  // organ (Colin27's eight structures 0.546 -> 0.361, the shared CT's aorta
+  // 48 -> 1,149 ml; BENCHMARKS.md section 12). Between the solve and the
+  // guard, s.tmp is free, and the guard checks the update as it will be.
+  if (p.target_mode == TargetMode::binary && loop_spacing_scratch(m) <= 3 * uint64_t(nv))
+    respace_loops(m, s.rhs, kLoopRespacing, s.tmp);
   // The mesh ends at the scan's box (grid_box.h): a solve that carries a
   // vertex beyond it (the smoothness terms round a cap pressed on a face)
   // puts it back on the face, before the guard, which then checks the
