@@ -256,6 +256,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
   s.eps = 0;
   if (entered == 0) {
     s.grid.set_cell_size(1);
+    s.grid.size_table(0);
     s.grid.build(s.lo, s.hi, 0, [](uint32_t) { return false; });
     return;
   }
@@ -295,6 +296,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     const uint32_t k = t / nt;
     return (s.state[k] & ContactScratch::kActive) && s.fdone[size_t(k) * m.nfaces + face_of(m, t - k * nt)];
   };
+  s.grid.size_table(uint32_t(entered));
   s.grid.build(s.lo, s.hi, total,
                [&](uint32_t t) { return entered_tri(t) && s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t)); });
   // The big ones at cells as wide as the widest of them (each then spans at
