@@ -7,7 +7,6 @@ namespace ffseg {
 void IntersectionScratch::carve(Arena& a, uint32_t nv) {
   grid.carve(a, 2 * nv);
   pts = a.alloc<double>(size_t(6) * nv);
-  len = a.alloc<double>(nv);
   mark = a.alloc<uint8_t>(nv);
 }
 
@@ -50,8 +49,6 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
         dsum += std::sqrt(len2);
         ++dn;
       }
-      const double* dv = d + 3 * size_t(v);
-      s.len[v] = has[v] ? std::sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]) : 0.0;
     }
     if (!(dsum > 0)) break;
     const double h = std::fmax(edge, dsum / dn);
@@ -60,32 +57,31 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
     for (uint32_t i = 0; i < nv; ++i) {
       if (!has[i] || !(s.mark[i] & kActive)) continue;
       const double* di = d + 3 * size_t(i);
-      const double li = s.len[i];
+      const double li = std::sqrt(di[0] * di[0] + di[1] * di[1] + di[2] * di[2]);
       if (!(li > 0)) continue;
       const uint32_t* nb = m.nbr + 4 * size_t(i);
-      const double* ui = x + 3 * size_t(i);
-      s.grid.for_each_in_ball(ui, alpha * li, [&](uint32_t id) {
+      s.grid.for_each_in_ball(x + 3 * size_t(i), alpha * li, [&](uint32_t id) {
         const uint32_t j = id < nv ? id : id - nv;
         if (j == i || !has[j] || j == nb[0] || j == nb[1] || j == nb[2] || j == nb[3]) return;
-        const double lj = s.len[j];
+        const double* dj = d + 3 * size_t(j);
+        const double lj = std::sqrt(dj[0] * dj[0] + dj[1] * dj[1] + dj[2] * dj[2]);
         if (!(lj > 0)) return;
+        const double c = (di[0] * dj[0] + di[1] * dj[1] + di[2] * dj[2]) / (li * lj);
+        if (c > tau) return;
         // Only a point ahead of u_i, on a path that closes in on u_j, can be
         // crossed: vertices on opposite sides of a growing or shrinking
         // surface disagree in direction but move apart or in parallel.
-        // (Tested before the directions: no division or root for most.)
-        const double* dj = d + 3 * size_t(j);
+        const double* ui = x + 3 * size_t(i);
         const double* uj = x + 3 * size_t(j);
         const double* q = s.pts + 3 * size_t(id);
         const double ahead = (q[0] - ui[0]) * di[0] + (q[1] - ui[1]) * di[1] + (q[2] - ui[2]) * di[2];
-        if (!(ahead > 0)) return;
         const double closing = (di[0] - dj[0]) * (ui[0] - uj[0]) + (di[1] - dj[1]) * (ui[1] - uj[1]) +
                                (di[2] - dj[2]) * (ui[2] - uj[2]);
-        if (!(closing < 0)) return;
-        const double c = (di[0] * dj[0] + di[1] * dj[1] + di[2] * dj[2]) / (li * lj);
-        if (c > tau) return;
-        s.mark[i] |= kNow;
-        s.mark[j] |= kNow;
-        ++conflicts;
+        if (ahead > 0 && closing < 0) {
+          s.mark[i] |= kNow;
+          s.mark[j] |= kNow;
+          ++conflicts;
+        }
       });
     }
     if (conflicts == 0) break;

@@ -14,7 +14,6 @@ namespace ffseg {
 struct IntersectionScratch {
   SpatialGrid grid;      // over 2 * nv points
   double* pts = nullptr; // 6 * nv: vertices, then targets
-  double* len = nullptr; // nv: |d| per vertex, this pass
   uint8_t* mark = nullptr;
   void carve(Arena& a, uint32_t nv);
 };
