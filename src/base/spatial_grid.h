@@ -28,6 +28,16 @@ inline int64_t floor_i64(double v) {
 class CellTable {
  public:
   int64_t cell(double v) const { return floor_i64(v * inv_h_); }
+  // Buckets for the next build: at least 2 * cells (as carved for the most),
+  // fewer when a build enters far fewer than the most (the grid of the
+  // obstacles a step meets): every build pass and lookup then walks a table
+  // that fits the entries instead of the capacity. Which entries a query
+  // meets, and in which order, does not depend on it.
+  void size_table(uint32_t cells) {
+    table_ = 1;
+    while (table_ < 2 * cells && table_ < table_cap_) table_ <<= 1;
+    mask_ = table_ - 1;
+  }
 
  protected:
   // At least 2 * cells buckets; room for `entries` ids.
@@ -35,6 +45,7 @@ class CellTable {
     table_ = 1;
     while (table_ < 2 * cells) table_ <<= 1;
     mask_ = table_ - 1;
+    table_cap_ = table_;
     start_ = a.alloc<uint32_t>(size_t(table_) + 1);
     ids_ = a.alloc<uint32_t>(entries);
   }
@@ -67,7 +78,7 @@ class CellTable {
     start_[0] = 0;
   }
 
-  uint32_t table_ = 0, mask_ = 0;
+  uint32_t table_ = 0, mask_ = 0, table_cap_ = 0;
   uint32_t* start_ = nullptr;  // table_ + 1
   uint32_t* ids_ = nullptr;    // entries, sorted by bucket
   double inv_h_ = 1;

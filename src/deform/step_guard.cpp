@@ -299,7 +299,7 @@ bool any_violation(const CubeSphere& m, const double* xs, TriangleScratch& ts) {
 // Contacts with the obstacles first: when the mesh is far from them their
 // test is a bounding-box reject, cheaper than the self-intersection test.
 bool violates(const CubeSphere& m, const double* xs, TriangleScratch& ts, ContactScratch* obstacles) {
-  return any_violation(m, xs, ts) || (obstacles && mark_contacts(m, xs, *obstacles, nullptr) > 0) ||
+  return any_violation(m, xs, ts) || (obstacles && mark_contacts(m, xs, *obstacles, nullptr, ts.face_alt_new) > 0) ||
          mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) > 0;
 }
 
@@ -385,15 +385,20 @@ uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* 
 // moved since it last ran, so that it goes on from its tracked pairs. *tracked:
 // whether it has run in this guard call (then incrementally).
 // Contacts with the obstacles (when given) are marked with the offences, a
-// round's cheap tests.
+// round's cheap tests, and tracked from round to round as the intersections
+// are (the splits mark_offending() leaves in ts.face_alt_new are theirs).
 uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, const uint8_t* moved,
                   TriangleScratch& ts, bool* tracked, ContactScratch* obstacles) {
   uint32_t count = mark_offending(m, x_old, xs, moved, ts);
-  if (obstacles) count += mark_contacts(m, xs, *obstacles, ts.vertex_marks);
+  if (obstacles) count += mark_contacts_tracked(m, xs, *obstacles, ts.vertex_marks, moved, ts.face_alt_new);
   uint8_t* pending = ts.vertex_pending;
   if (moved)
     for (size_t v = 0; v < m.nv; ++v) pending[v] |= moved[v];
   if (count > 0) return count;
+  // The first test of a guard call usually finds the round clean (which ends
+  // the rounds): the yes/no query (certified, far cheaper than finding every
+  // pair, with the same answer) tells it; only a crossing calls for the pairs.
+  if (!*tracked && mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) == 0) return 0;
   const uint32_t pairs =
       mark_intersections_tracked(m, xs, ts, ts.vertex_marks, *tracked ? pending : nullptr, ts.face_alt_new);
   *tracked = true;

@@ -122,13 +122,14 @@ int vertices_inside(const double* y, uint32_t nv, const double* x, const uint32_
   return -1;
 }
 
-// The query mesh's face f split at x and its triangles boxed (once per query).
-inline void prepare_face(const CubeSphere& m, const double* x, ContactScratch& s, uint32_t f) {
+// The query mesh's face f split at x (alt: the caller's splits, may be
+// nullptr) and its triangles boxed (once per query).
+inline void prepare_face(const CubeSphere& m, const double* x, ContactScratch& s, uint32_t f, const uint8_t* alt) {
   if (s.qface[f]) return;
   s.qface[f] = 1;
   const uint32_t t0 = m.first_triangle(f);
   uint32_t* tri = s.qtris + 3 * size_t(t0);
-  const int c = face_triangles(m, f, tri, x);
+  const int c = alt ? face_split(m, f, alt[f] != 0, tri) : face_triangles(m, f, tri, x);
   for (int i = 0; i < c; ++i) {
     const uint32_t* id = tri + 3 * i;
     detail::triangle_box(x + 3 * size_t(id[0]), x + 3 * size_t(id[1]), x + 3 * size_t(id[2]), s.eps,
@@ -167,9 +168,12 @@ void for_each_done(const CubeSphere& m, const ContactScratch& s, F&& fn) {
   }
 }
 
-// Obstacle k whole (every face split and boxed), for the ray test.
+// Obstacle k whole (every face split and boxed), for the ray test. The
+// scan of a query too wide for the grid then meets these triangles too:
+// the tracked pairs, found without them, end.
 void complete(const CubeSphere& m, ContactScratch& s, uint32_t k) {
   if (s.state[k] & ContactScratch::kComplete) return;
+  s.tracked = false;
   const uint8_t* done = s.fdone + size_t(k) * m.nfaces;
   for (uint32_t f = 0; f < m.nfaces; ++f)
     if (!done[f]) obstacle_face(m, s, k, f, s.eps);
@@ -201,11 +205,18 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   qcode = a.alloc<uint8_t>(m.nv);
   crossed = a.alloc<uint8_t>(max_obst);
   zone = a.alloc<double>(size_t(6) * max_obst);
+  // Beyond it a tracked call starts afresh (a step pressed deep into a
+  // neighbour; the guard halves it anyway).
+  pair_cap = nt + 64;
+  pairs = a.alloc<uint32_t>(2 * size_t(pair_cap));
+  npairs = 0;
+  tracked = false;
 }
 
 void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s,
                      const double* region) {
   s.count = count < s.max_obstacles ? count : s.max_obstacles;
+  s.tracked = false;
   const uint32_t nt = s.nt;
   // The region, widened against the rounding of positions blended inside it.
   double rlo[3], rhi[3];
@@ -245,6 +256,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
   s.eps = 0;
   if (entered == 0) {
     s.grid.set_cell_size(1);
+    s.grid.size_table(0);
     s.grid.build(s.lo, s.hi, 0, [](uint32_t) { return false; });
     return;
   }
@@ -284,6 +296,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     const uint32_t k = t / nt;
     return (s.state[k] & ContactScratch::kActive) && s.fdone[size_t(k) * m.nfaces + face_of(m, t - k * nt)];
   };
+  s.grid.size_table(uint32_t(entered));
   s.grid.build(s.lo, s.hi, total,
                [&](uint32_t t) { return entered_tri(t) && s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t)); });
   // The big ones at cells as wide as the widest of them (each then spans at
@@ -300,14 +313,16 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
   });
 }
 
-uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark) {
-  if (s.count == 0) return 0;
-  const uint32_t nt = s.nt;
-  double xlo[3], xhi[3];
+
+namespace {
+
+// The query's box (xlo, xhi) and the zone: per obstacle whose box meets it,
+// the overlap of the two (s.zone), and the box around them all (zlo, zhi);
+// only x's triangles meeting an overlap can cross. Clears s.crossed; returns
+// how many obstacles met.
+uint32_t contact_zone(const CubeSphere& m, const double* x, ContactScratch& s, double xlo[3], double xhi[3],
+                      double zlo[3], double zhi[3]) {
   vertex_box(x, m.nv, s.eps, xlo, xhi);
-  // The zone: a box around every overlap of x's box with an obstacle's; only
-  // x's triangles meeting it can cross.
-  double zlo[3], zhi[3];
   uint32_t near = 0;
   for (uint32_t k = 0; k < s.count; ++k) {
     const double* b = s.box + 6 * size_t(k);
@@ -323,87 +338,84 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
     }
     ++near;
   }
-  if (near == 0) return 0;
-  uint32_t count = 0;
+  return near;
+}
+
+// s.qcode: per vertex of x, its outcodes against the zone widened by eps
+// (a face whose box, widened by eps, misses it has no triangle to test).
+void zone_codes(const CubeSphere& m, const double* x, ContactScratch& s, const double zlo[3], const double zhi[3]) {
+  double wlo[3], whi[3];
+  for (int a = 0; a < 3; ++a) {
+    wlo[a] = zlo[a] - s.eps;
+    whi[a] = zhi[a] + s.eps;
+  }
+  outcodes(x, m.nv, wlo, whi, s.qcode);
+}
+
+// Calls hit(u) for every obstacle triangle u that x's triangle t (boxed by
+// prepare_face()) crosses, while hit returns false; returns whether it
+// stopped. A triangle's crossings depend on its own vertices only: the zone
+// (near overlaps) bounds every obstacle triangle box that its box can meet.
+template <class Hit>
+bool triangle_contacts(const CubeSphere& m, const double* x, const ContactScratch& s, uint32_t near, uint32_t t,
+                       Hit&& hit) {
+  const uint32_t nt = s.nt;
+  const double *lt = s.qlo + 3 * size_t(t), *ht = s.qhi + 3 * size_t(t);
+  bool meets = false;
+  for (uint32_t j = 0; j < near && !meets; ++j)
+    meets = detail::boxes_overlap(lt, ht, s.zone + 6 * size_t(j), s.zone + 6 * size_t(j) + 3);
+  if (!meets) return false;
   bool stop = false;
-  // A candidate pair: x's triangle t, obstacle triangle u (boxes overlap).
-  auto test = [&](uint32_t t, uint32_t u) {
-    const uint32_t k = u / nt;
+  auto test = [&](uint32_t u) {
     const uint32_t* a = s.qtris + 3 * size_t(t);
     const uint32_t* b = s.tris + 3 * size_t(u);
-    const double* y = s.pos[k];
+    const double* y = s.pos[u / nt];
     const double* A[3] = {x + 3 * size_t(a[0]), x + 3 * size_t(a[1]), x + 3 * size_t(a[2])};
     const double* B[3] = {y + 3 * size_t(b[0]), y + 3 * size_t(b[1]), y + 3 * size_t(b[2])};
-    if (!detail::disjoint_triangles_cross(A, B)) return;
-    ++count;
-    s.crossed[k] = 1;
-    if (!mark) {
-      stop = true;
-      return;
-    }
-    mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
+    if (detail::disjoint_triangles_cross(A, B)) stop = hit(u);
   };
-  {
-    // Faces whose boxes (widened by eps) meet the zone, by outcodes.
-    double wlo[3], whi[3];
-    for (int a = 0; a < 3; ++a) {
-      wlo[a] = zlo[a] - s.eps;
-      whi[a] = zhi[a] + s.eps;
-    }
-    outcodes(x, m.nv, wlo, whi, s.qcode);
-  }
-  for (uint32_t f = 0; f < m.nfaces; ++f) s.qface[f] = 0;
-  for (uint32_t f = 0; f < m.nfaces && !stop; ++f) {
-    if (!face_meets(m, f, s.qcode)) continue;
-    prepare_face(m, x, s, f);
-    const uint32_t t0 = m.first_triangle(f);
-    const int c = m.faces[4 * size_t(f) + 3] != kNone ? 2 : 1;
-    for (int i = 0; i < c && !stop; ++i) {
-      const uint32_t t = t0 + i;
-      const double *lt = s.qlo + 3 * size_t(t), *ht = s.qhi + 3 * size_t(t);
-      // Only where the query's box overlaps some obstacle's (the zone
-      // bounds them all).
-      bool meets = false;
-      for (uint32_t j = 0; j < near && !meets; ++j)
-        meets = detail::boxes_overlap(lt, ht, s.zone + 6 * size_t(j), s.zone + 6 * size_t(j) + 3);
-      if (!meets) continue;
-      // Each pair once: in the cell holding the low corner of the two
-      // boxes' intersection (it lies in both boxes' cells).
-      auto query = [&](const BoxGrid& g) {
-        g.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* cell) {
-          if (stop) return;
-          const double* lu = s.lo + 3 * size_t(u);
-          if (!detail::boxes_overlap(lt, ht, lu, s.hi + 3 * size_t(u))) return;
-          for (int a = 0; a < 3; ++a)
-            if (g.cell(lt[a] > lu[a] ? lt[a] : lu[a]) != cell[a]) return;
-          test(t, u);
-        });
-      };
-      if (s.grid.cells(lt, ht) <= kMaxQueryCells) {
-        query(s.grid);
-        if (s.nbig == 0) continue;
-        if (s.big_fit && s.big_grid.cells(lt, ht) <= kMaxQueryCells) {
-          query(s.big_grid);
-        } else {
-          for (uint32_t j = 0; j < s.nbig && !stop; ++j) {
-            const uint32_t u = s.big[j];
-            if (detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(t, u);
-          }
-        }
-      } else {
-        // Triangles completed for the ray test lie outside the region, so
-        // outside every query's boxes.
-        for_each_done(m, s, [&](uint32_t u) {
-          if (!stop && detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(t, u);
-        });
+  // Each pair once: in the cell holding the low corner of the two boxes'
+  // intersection (it lies in both boxes' cells).
+  auto query = [&](const BoxGrid& g) {
+    g.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* cell) {
+      if (stop) return;
+      const double* lu = s.lo + 3 * size_t(u);
+      if (!detail::boxes_overlap(lt, ht, lu, s.hi + 3 * size_t(u))) return;
+      for (int a = 0; a < 3; ++a)
+        if (g.cell(lt[a] > lu[a] ? lt[a] : lu[a]) != cell[a]) return;
+      test(u);
+    });
+  };
+  if (s.grid.cells(lt, ht) <= kMaxQueryCells) {
+    query(s.grid);
+    if (s.nbig == 0 || stop) return stop;
+    if (s.big_fit && s.big_grid.cells(lt, ht) <= kMaxQueryCells) {
+      query(s.big_grid);
+    } else {
+      for (uint32_t j = 0; j < s.nbig && !stop; ++j) {
+        const uint32_t u = s.big[j];
+        if (detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
       }
     }
+  } else {
+    // Triangles completed for the ray test lie outside the region, so
+    // outside every query's boxes.
+    for_each_done(m, s, [&](uint32_t u) {
+      if (!stop && detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
+    });
   }
-  if (stop) return count;
-  // Containment without crossing: x lies inside obstacle k only if its box
-  // lies in k's, and encloses k only if k's box lies in its own; without a
-  // crossing every vertex of one is on one side of the other, so one vertex
-  // decides.
+  return stop;
+}
+
+// Containment without crossing (s.crossed set for this query): x lies
+// inside obstacle k only if its box (xlo, xhi) lies in k's, and encloses k
+// only if k's box lies in its own; without a crossing every vertex of one is
+// on one side of the other, so one vertex decides. Returns how many, marking
+// every vertex of x for each (mark nullptr: stops at the first).
+uint32_t contained(const CubeSphere& m, const double* x, ContactScratch& s, const double xlo[3],
+                   const double xhi[3], uint8_t* mark, const uint8_t* alt) {
+  const uint32_t nt = s.nt;
+  uint32_t count = 0;
   bool all_split = false;
   for (uint32_t k = 0; k < s.count; ++k) {
     if (s.crossed[k] || !(s.state[k] & ContactScratch::kActive)) continue;
@@ -417,7 +429,7 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
     }
     if (!inside && box_inside(b, b + 3, xlo, xhi)) {
       if (!all_split)
-        for (uint32_t f = 0; f < m.nfaces; ++f) prepare_face(m, x, s, f);
+        for (uint32_t f = 0; f < m.nfaces; ++f) prepare_face(m, x, s, f, alt);
       all_split = true;
       inside = vertices_inside(s.pos[k], m.nv, x, s.qtris, s.qlo, s.qhi, nt) == 1;
     }
@@ -427,6 +439,115 @@ uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, 
     for (uint32_t v = 0; v < m.nv; ++v) mark[v] = 1;
   }
   return count;
+}
+
+// mark_contacts() from scratch; with record, the crossing pairs are kept for
+// mark_contacts_tracked() (mark must then be set).
+uint32_t contacts_full(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark, const uint8_t* alt,
+                       bool record) {
+  s.tracked = false;
+  if (s.count == 0) return 0;
+  const uint32_t nt = s.nt;
+  for (uint32_t f = 0; f < m.nfaces; ++f) s.qface[f] = 0;
+  s.npairs = 0;
+  double xlo[3], xhi[3], zlo[3], zhi[3];
+  const uint32_t near = contact_zone(m, x, s, xlo, xhi, zlo, zhi);
+  if (near == 0) {
+    s.tracked = record;
+    return 0;
+  }
+  zone_codes(m, x, s, zlo, zhi);
+  uint32_t count = 0;
+  bool room = true;
+  for (uint32_t f = 0; f < m.nfaces; ++f) {
+    if (!face_meets(m, f, s.qcode)) continue;
+    prepare_face(m, x, s, f, alt);
+    const uint32_t t0 = m.first_triangle(f);
+    const int c = m.faces[4 * size_t(f) + 3] != kNone ? 2 : 1;
+    for (int i = 0; i < c; ++i) {
+      const uint32_t t = t0 + i;
+      const bool stop = triangle_contacts(m, x, s, near, t, [&](uint32_t u) {
+        ++count;
+        s.crossed[u / nt] = 1;
+        if (!mark) return true;
+        const uint32_t* a = s.qtris + 3 * size_t(t);
+        mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
+        if (record && (room = room && s.npairs < s.pair_cap)) {
+          s.pairs[2 * size_t(s.npairs)] = t;
+          s.pairs[2 * size_t(s.npairs) + 1] = u;
+          ++s.npairs;
+        }
+        return false;
+      });
+      if (stop) return count;
+    }
+  }
+  s.tracked = record && room;
+  return count + contained(m, x, s, xlo, xhi, mark, alt);
+}
+
+// Whether a vertex of face f moved.
+inline bool face_moved(const CubeSphere& m, uint32_t f, const uint8_t* moved) {
+  const uint32_t* q = m.faces + 4 * size_t(f);
+  return moved[q[0]] | moved[q[1]] | moved[q[2]] | (q[3] != kNone && moved[q[3]]);
+}
+
+}  // namespace
+
+uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark, const uint8_t* alt) {
+  return contacts_full(m, x, s, mark, alt, false);
+}
+
+uint32_t mark_contacts_tracked(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark,
+                               const uint8_t* moved, const uint8_t* alt) {
+  if (!moved || !s.tracked) return contacts_full(m, x, s, mark, alt, true);
+  if (s.count == 0) return 0;
+  const uint32_t nt = s.nt;
+  // The faces around moved vertices are split and boxed again when met.
+  for (uint32_t f = 0; f < m.nfaces; ++f)
+    if (face_moved(m, f, moved)) s.qface[f] = 0;
+  double xlo[3], xhi[3], zlo[3], zhi[3];
+  const uint32_t near = contact_zone(m, x, s, xlo, xhi, zlo, zhi);
+  if (near == 0) {
+    s.npairs = 0;
+    return 0;
+  }
+  // Pairs of unmoved triangles stand; the moved ones' are found afresh.
+  uint32_t kept = 0;
+  for (uint32_t i = 0; i < s.npairs; ++i) {
+    const uint32_t t = s.pairs[2 * size_t(i)], u = s.pairs[2 * size_t(i) + 1];
+    if (face_moved(m, face_of(m, t), moved)) continue;
+    s.pairs[2 * size_t(kept)] = t;
+    s.pairs[2 * size_t(kept) + 1] = u;
+    ++kept;
+    s.crossed[u / nt] = 1;
+    const uint32_t* a = s.qtris + 3 * size_t(t);
+    mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
+  }
+  s.npairs = kept;
+  zone_codes(m, x, s, zlo, zhi);
+  bool room = true;
+  for (uint32_t f = 0; f < m.nfaces && room; ++f) {
+    if (!face_moved(m, f, moved) || !face_meets(m, f, s.qcode)) continue;
+    prepare_face(m, x, s, f, alt);
+    const uint32_t t0 = m.first_triangle(f);
+    const int c = m.faces[4 * size_t(f) + 3] != kNone ? 2 : 1;
+    for (int i = 0; i < c && room; ++i) {
+      const uint32_t t = t0 + i;
+      triangle_contacts(m, x, s, near, t, [&](uint32_t u) {
+        if (!(room = s.npairs < s.pair_cap)) return true;
+        s.pairs[2 * size_t(s.npairs)] = t;
+        s.pairs[2 * size_t(s.npairs) + 1] = u;
+        ++s.npairs;
+        s.crossed[u / nt] = 1;
+        const uint32_t* a = s.qtris + 3 * size_t(t);
+        mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
+        return false;
+      });
+    }
+  }
+  if (!room) return contacts_full(m, x, s, mark, alt, true);
+  return s.npairs + contained(m, x, s, xlo, xhi, mark, alt);
 }
 
 }  // namespace ffseg

@@ -53,6 +53,13 @@ struct ContactScratch {
   uint8_t* qcode = nullptr;           // per vertex: outcodes against a box (scratch)
   uint8_t* crossed = nullptr;         // per obstacle, this query
   double* zone = nullptr;             // per obstacle met, this query: its box's overlap with the query's (6)
+  // mark_contacts_tracked(): the crossing pairs (query triangle, obstacle
+  // triangle) at the positions of the last call, valid while tracked; then
+  // qtris, qlo and qhi also hold every face that qface marks, as split and
+  // boxed at those positions.
+  uint32_t* pairs = nullptr;
+  uint32_t npairs = 0, pair_cap = 0;
+  bool tracked = false;
   void carve(Arena& a, const CubeSphere& m, uint32_t max_obstacles);
 };
 
@@ -75,6 +82,18 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
 // of x's crossing triangles; every vertex of x when x lies inside an
 // obstacle or encloses one. Returns the number of offences. Touching
 // (coplanar contact, a vertex on the other surface) is not an offence.
-uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark);
+// alt (optional): per face, its split at x as face_triangles() gives it
+// (1: the 1-3 diagonal), when the caller has it.
+uint32_t mark_contacts(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark,
+                       const uint8_t* alt = nullptr);
+
+// The same with mark required and the crossing pairs kept in s: when moved
+// is given and the previous call was tracked too (with the same obstacles),
+// positions x may differ from that call's only at the vertices with
+// moved[v] != 0, and only the triangles around them are tested again. Marks
+// and count equal mark_contacts'. Any mark_contacts() or build_obstacles()
+// call in between ends the tracking.
+uint32_t mark_contacts_tracked(const CubeSphere& m, const double* x, ContactScratch& s, uint8_t* mark,
+                               const uint8_t* moved, const uint8_t* alt = nullptr);
 
 }  // namespace ffseg

@@ -216,3 +216,69 @@ TEST_CASE("mesh contact: jittered spheres and spikes agree with every triangle p
   CHECK(crossing_cases >= 20);  // both kinds occur
   CHECK(clean_cases >= 10);
 }
+
+TEST_CASE("mesh contact: tracked calls after local moves equal the check from scratch") {
+  // The guard's use: one set of obstacles, then a sequence of positions each
+  // differing from the last at a patch of vertices (pushed into a neighbour,
+  // pulled back, sometimes the whole mesh inside another's box); every
+  // tracked call gives the count and the marks of the untracked one.
+  std::mt19937_64 rng(30030);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  uint32_t crossing_calls = 0, clean_calls = 0;
+  for (uint32_t n : {6u, 10u}) {
+    ContactBox b(n, 3);
+    const uint32_t nv = b.m.nv;
+    const auto A = b.sphere(8, 19.5, 0, 0), B = b.sphere(6, -3, 17, 1), C = b.sphere(30, 0, 0, 0);
+    for (int setup = 0; setup < 3; ++setup) {
+      CAPTURE(n);
+      CAPTURE(setup);
+      std::vector<const double*> p = {A.data(), B.data()};
+      if (setup == 2) p.push_back(C.data());  // a shell around all: x lies inside it
+      auto x = b.sphere(10);
+      double region[6] = {-40, -40, -40, 40, 40, 40};
+      ffseg::build_obstacles(b.m, p.data(), uint32_t(p.size()), b.cs, setup == 1 ? region : nullptr);
+      std::vector<uint8_t> moved(nv, 0), mark(nv), ref(nv);
+      for (int call = 0; call < 40; ++call) {
+        CAPTURE(call);
+        const uint8_t* mv = nullptr;
+        if (call > 0) {
+          // A patch around a random vertex moves outwards or inwards.
+          std::fill(moved.begin(), moved.end(), 0);
+          const uint32_t c = uint32_t(rng() % nv);
+          const double s = 1 + 0.6 * U(rng);
+          const bool all = call % 8 == 0;  // back to the clean sphere
+          for (uint32_t v = 0; v < nv; ++v) {
+            if (all) {
+              moved[v] = 1;
+              for (int a = 0; a < 3; ++a) x[3 * size_t(v) + a] = 10 * b.m.unit[3 * size_t(v) + a];
+              continue;
+            }
+            double d = 0;
+            for (int a = 0; a < 3; ++a) {
+              const double e = b.m.unit[3 * size_t(v) + a] - b.m.unit[3 * size_t(c) + a];
+              d += e * e;
+            }
+            if (d > 0.3) continue;
+            moved[v] = 1;
+            for (int a = 0; a < 3; ++a) x[3 * size_t(v) + a] = 10 * s * b.m.unit[3 * size_t(v) + a];
+          }
+          mv = moved.data();
+        }
+        std::fill(mark.begin(), mark.end(), 0);
+        const uint32_t got = ffseg::mark_contacts_tracked(b.m, x.data(), b.cs, mark.data(), mv);
+        // The untracked check ends the tracking: on a copy of the scratch's
+        // state it would not, so check against a fresh box.
+        ContactBox r(n, 3);
+        ffseg::build_obstacles(r.m, p.data(), uint32_t(p.size()), r.cs, setup == 1 ? region : nullptr);
+        std::fill(ref.begin(), ref.end(), 0);
+        const uint32_t want = ffseg::mark_contacts(r.m, x.data(), r.cs, ref.data());
+        CHECK(got == want);
+        CHECK(mark == ref);
+        crossing_calls += want > 0;
+        clean_calls += want == 0;
+      }
+    }
+  }
+  CHECK(crossing_calls >= 20);
+  CHECK(clean_calls >= 5);
+}
