@@ -50,22 +50,18 @@ void edge_triangle_normal(const CubeSphere& m, uint32_t f, uint32_t a, uint32_t 
   split_edge_normal(tri, face_triangles(m, f, tri, x), a, b, x, n);
 }
 
-// Whether the angle between normals a and b folds: cos < kFoldCos, the
-// cosine dot / sqrt(|a|^2 |b|^2), -1 by convention for a zero normal. No
-// square root or division where the dot product is not negative (then the
-// cosine is >= 0).
-bool folded(const double a[3], const double b[3]) {
+// Whether the angle between normals a and b folds: cos < kFoldCos.
+// The cosine dot / sqrt(|a|^2 |b|^2), -1 for a zero normal; with
+// sign_only, 1 where the dot product is not negative (no square root or
+// division: the cosine is then >= 0, no fold).
+double fold_cos(const double a[3], const double b[3], bool sign_only = false) {
   const double dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
   const double l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) * (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
-  if (dot >= 0 && l > 0) return false;
-  return (l > 0 ? dot / __builtin_sqrt(l) : -1.0) < kFoldCos;
-}
-
-double fold_cos(const double a[3], const double b[3]) {
-  const double dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-  const double l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) * (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+  if (sign_only && dot >= 0 && l > 0) return 1.0;
   return l > 0 ? dot / __builtin_sqrt(l) : -1.0;
 }
+
+bool folded(const double a[3], const double b[3]) { return fold_cos(a, b, true) < kFoldCos; }
 
 // A triangle thinning into a needle: its altitude below kNeedle times its
 // longest edge at the tested positions, and its area shrinking. Such a
