@@ -4,16 +4,27 @@ namespace ffseg {
 
 namespace {
 
-// Converged: the mean displacement is below convergence_mm and, on binary
-// targets, at most kMovingShare of the vertices still move by more than
-// kStillFactor times it (a mean alone calls the cup converged while its cavity
-// is still filling); while polishing, more than kPolishStillFactor times it
-// (the cup's cavity corners fill a little each step: n = 21, alpha 0.3 stopped
-// at Dice 0.963 with the first factor, reaches 0.97 with this one). Grey-level
-// targets flicker between neighbouring voxel decisions: a few percent of the
-// vertices keep moving by that much for good (Colin27 putamen: 11 more steps,
-// none changing Dice by more than noise), so there the mean alone decides.
-constexpr double kStillFactor = 4.0;
+// Binary targets come to rest when their surface stands still and no front
+// advances: the mean displacement along the vertex normals is below
+// convergence_mm, and so is the fronts' mean advance toward their targets
+// (StepMotion). Not the vertices' own displacement: the loops' re-spacing
+// slides them within the surface, on a folded one for good (the Colin27
+// brain mask at n = 49: 0.07-0.10 mm a step, of it 0.013-0.015 mm across
+// the surface). Not the mean across the surface alone either: along a tube
+// only the front moves, a few vertices of thousands, while their advance
+// stays at 0.14-0.65 mm a step (BENCHMARKS.md section 12); the fronts'
+// advance is also what keeps the cup's cavity filling.
+// Then the mesh polishes (fewer diffusion rounds, no re-spacing:
+// stages.cpp) and fits sharp features with small motions of a few vertices,
+// where a mean alone stops too soon: it has converged when the mean
+// displacement is below convergence_mm and at most kMovingShare of the
+// vertices still move by more than kPolishStillFactor times it (the cup's
+// cavity corners fill a little each step: n = 21, alpha 0.3 stopped at Dice
+// 0.963 with a factor of 4, reaches 0.97 with this one). Grey-level targets
+// flicker between neighbouring voxel decisions: a few percent of the
+// vertices keep moving by that much for good (Colin27 putamen: 11 more
+// steps, none changing Dice by more than noise), so there the mean alone
+// decides.
 constexpr double kPolishStillFactor = 0.75;
 constexpr double kMovingShare = 0.01;
 // Grey-level targets also rest once the mean displacement has stayed below
@@ -38,15 +49,16 @@ constexpr double kStallShare = 0.1;
 }  // namespace
 
 double Convergence::moving_threshold(const ConvergenceRule& r) const {
-  return (polish_ ? kPolishStillFactor : kStillFactor) * r.convergence_mm;
+  return (polish_ ? kPolishStillFactor : 1.0) * r.convergence_mm;
 }
 
-bool Convergence::record(const ConvergenceRule& r, double mean_displacement_mm, uint32_t moving, uint32_t nv,
-                         double net_far_share) {
-  bool rest =
-      mean_displacement_mm < r.convergence_mm && (!r.binary || double(moving) <= kMovingShare * nv);
-  if (!r.binary) {
-    creep_ = mean_displacement_mm < kCreepFactor * r.convergence_mm ? creep_ + 1 : 0;
+bool Convergence::record(const ConvergenceRule& r, const StepMotion& m, uint32_t nv, double net_far_share) {
+  const double c = r.convergence_mm;
+  bool rest = m.mean_mm < c;
+  if (r.binary) {
+    rest = polish_ ? rest && double(m.moving) <= kMovingShare * nv : m.normal_mm < c && m.front_mm < c;
+  } else {
+    creep_ = m.mean_mm < kCreepFactor * c ? creep_ + 1 : 0;
     if (creep_ >= kCreepSteps) rest = true;
   }
   // The first rest decides whether it is a stall (the later ones polish or

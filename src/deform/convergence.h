@@ -17,6 +17,20 @@ struct ConvergenceRule {
   uint32_t partial_volume_steps = 0;
 };
 
+// How one step moved an object's mesh (stages.cpp's tally).
+struct StepMotion {
+  double mean_mm = 0;    // mean vertex displacement
+  uint32_t moving = 0;   // vertices that moved by more than moving_threshold()
+  // Mean displacement across the surface (the component along each vertex's
+  // normal): sliding within the surface, as the binary targets' loop
+  // re-spacing makes it, does not count.
+  double normal_mm = 0;
+  // The fronts: the vertices whose target lies more than a voxel away (the
+  // mesh has not reached the boundary there), their mean advance toward it;
+  // 0 when there are none.
+  double front_mm = 0;
+};
+
 class Convergence {
  public:
   // Move again from where the mesh is (new parameters or volume).
@@ -39,15 +53,12 @@ class Convergence {
   // Grey-level targets: came to rest once, now on partial-volume boundaries.
   bool refining() const { return refining_; }
 
-  // A vertex that moves more than this counts as moving (see still()).
+  // A vertex that moves more than this counts as moving (StepMotion::moving).
   double moving_threshold(const ConvergenceRule& r) const;
-  // Records one step's motion (mean vertex displacement, vertices moving by
-  // more than moving_threshold(), out of nv) and advances the phases. Returns
-  // converged().
+  // Records one step's motion and advances the phases. Returns converged().
   // net_far_share: (vertices with targets more than a voxel outward - those
   // more than a voxel inward) / nv, for stalled().
-  bool record(const ConvergenceRule& r, double mean_displacement_mm, uint32_t moving, uint32_t nv,
-              double net_far_share = 0.0);
+  bool record(const ConvergenceRule& r, const StepMotion& m, uint32_t nv, double net_far_share = 0.0);
   // The first rest was no rest at a boundary but a stall: the mesh stood
   // still while more than kStallShare of its vertices, on balance, still
   // pointed more than a voxel beyond it on one side (the guard, the fold

@@ -443,7 +443,8 @@ Err Engine::step(StepReport* r) {
       if (placed > 1)
         for (uint32_t j = 0; j < N; ++j)
           if (j != i && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
-      const Err e = deform_step(mesh_, p, &vol_, o.convergence.moving_threshold(rule()), o.x, o.step, scratch_,
+      const Err e = deform_step(mesh_, p, &vol_, o.convergence.moving_threshold(rule()),
+                                o.convergence.polishing(), o.x, o.step, scratch_,
                                 scratch_.obstacles, others, r->stage_us, msg_, kMsgLen);
       if (e != Err::ok) return e;
     }
@@ -469,8 +470,8 @@ Err Engine::step(StepReport* r) {
     const ObjectStep& st = o.step;
     if (moved) {
       if (at < kReportObjects) {
-        r->moving[at] = st.moving;
-        r->mean_displacement_mm[at] = st.mean_displacement_mm;
+        r->moving[at] = st.motion.moving;
+        r->mean_displacement_mm[at] = st.motion.mean_mm;
         r->with_target[at] = st.found;
         r->flips_avoided[at] = st.flips_avoided;
         r->folds_avoided[at] = st.folds_avoided;
@@ -479,7 +480,7 @@ Err Engine::step(StepReport* r) {
         r->far_outward[at] = st.far_out;
         r->far_inward[at] = st.far_in;
       }
-      if (!o.convergence.record(rule(), st.mean_displacement_mm, st.moving, nv,
+      if (!o.convergence.record(rule(), st.motion, nv,
                                 (double(st.far_out) - double(st.far_in)) / nv))
         all_converged = false;
       if (o.convergence.stalled()) o.flags |= kObjectStalled;

@@ -35,8 +35,7 @@ struct ObjectStep {
   uint32_t folds_avoided = 0;
   double guard_kept = 1;            // the mean share of the solved update the guard kept
   uint32_t guard_held = 0;          // vertices the guard held to less than half their update
-  double mean_displacement_mm = 0;  // how far the step moved the vertices
-  uint32_t moving = 0;              // ... and how many moved beyond the still threshold
+  StepMotion motion;                // how the step moved the mesh
   // regions: several objects, the border flags too.
   void carve(Arena& a, uint32_t nv, bool regions);
 };

@@ -45,19 +45,39 @@ uint32_t polish_rounds(uint32_t rounds) {
   return r < 1 ? 1u : r;
 }
 
-// How far the vertices moved from x to the new positions.
+// How far the vertices moved (StepMotion): all of it, across the surface
+// (along n, the unit normals where they were; without them all of it
+// counts), and the fronts' advance toward targets more than a voxel away.
 struct MotionTally {
   double still_mm;
-  double moved = 0;
-  uint32_t moving = 0;
-  void add(double d2) {
-    const double d = std::sqrt(d2);
-    moved += d;
-    moving += d > still_mm;
+  double voxel;
+  double moved = 0, across = 0, advance = 0;
+  uint32_t moving = 0, fronts = 0;
+  void add(const double* from, const double* to, const double* n, const double* target) {
+    double d[3], d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      d[a] = to[a] - from[a];
+      d2 += d[a] * d[a];
+    }
+    const double len = std::sqrt(d2);
+    moved += len;
+    moving += len > still_mm;
+    across += n ? std::fabs(d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) : len;
+    if (!target) return;
+    double q[3], q2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      q[a] = target[a] - from[a];
+      q2 += q[a] * q[a];
+    }
+    if (!(q2 > voxel * voxel)) return;
+    ++fronts;
+    advance += (d[0] * q[0] + d[1] * q[1] + d[2] * q[2]) / std::sqrt(q2);
   }
   void store(uint32_t nv, ObjectStep& st) const {
-    st.mean_displacement_mm = moved / nv;
-    st.moving = moving;
+    st.motion.mean_mm = moved / nv;
+    st.motion.moving = moving;
+    st.motion.normal_mm = across / nv;
+    st.motion.front_mm = fronts ? advance / fronts : 0.0;
   }
 };
 
@@ -255,8 +275,8 @@ void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, O
   st.folds_avoided = prevent_folds(m, x, st.disp, st.has, p.flip_tau, p.step_size, s.folds);
 }
 
-Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, double* x,
-                ObjectStep& st, StepScratch& s, const double* const* others, uint32_t other_count,
+Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, bool polishing,
+                double* x, ObjectStep& st, StepScratch& s, const double* const* others, uint32_t other_count,
                 uint64_t stage_us[kStageCount], char* msg, size_t msg_len) {
   const uint32_t nv = m.nv;
   uint64_t t0 = now_us(), t1;
@@ -312,7 +332,11 @@ Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, do
   // organ (Colin27's eight structures 0.546 -> 0.361, the shared CT's aorta
   // 48 -> 1,149 ml; BENCHMARKS.md section 12). Between the solve and the
   // guard, s.tmp is free, and the guard checks the update as it will be.
-  if (p.target_mode == TargetMode::binary && loop_spacing_scratch(m) <= 3 * uint64_t(nv))
+  // Not while polishing: the mesh has met its boundary, and on a folded one
+  // the re-spacing would slide it within the surface for good (the brain
+  // mask at n = 49 did not come to rest in 400 steps).
+  const bool binary = p.target_mode == TargetMode::binary;
+  if (binary && !polishing && loop_spacing_scratch(m) <= 3 * uint64_t(nv))
     respace_loops(m, s.rhs, kLoopRespacing, s.tmp);
   // The mesh ends at the scan's box (grid_box.h): a solve that carries a
   // vertex beyond it (the smoothness terms round a cap pressed on a face)
@@ -347,31 +371,37 @@ Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, do
   st.guard_held = 0;
   for (uint32_t v = 0; v < nv; ++v) st.guard_held += s.weight[v] < 0.5;  // the guard's shares
   lap(kStageGuard);
-  MotionTally tally{still_mm};
+  // Binary targets rest on the motion across the surface and the fronts'
+  // advance (convergence.cpp), measured against the mesh as it was.
+  const double* normals = nullptr;
+  if (binary) {
+    vertex_normals(m, x, s.normals);
+    normals = s.normals;
+  }
+  // A voxel: the largest spacing, as for the far targets of the stall rule.
+  const bool fronts = binary && grid != nullptr;
+  const double* sp = fronts ? grid->spacing() : nullptr;
+  MotionTally tally{still_mm, sp ? std::fmax(sp[0], std::fmax(sp[1], sp[2])) : 0.0};
   for (uint32_t v = 0; v < nv; ++v) {
-    double d2 = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double nx = s.rhs[size_t(a) * nv + v];
-      d2 += (nx - x[3 * size_t(v) + a]) * (nx - x[3 * size_t(v) + a]);
-      x[3 * size_t(v) + a] = nx;
-    }
-    tally.add(d2);
+    double* xv = x + 3 * size_t(v);
+    const double to[3] = {s.rhs[v], s.rhs[size_t(nv) + v], s.rhs[size_t(2) * nv + v]};
+    const bool front = fronts && st.has[v] && !(st.border && st.border[v]);
+    tally.add(xv, to, normals ? normals + 3 * size_t(v) : nullptr, front ? st.target + 3 * size_t(v) : nullptr);
+    for (int a = 0; a < 3; ++a) xv[a] = to[a];
   }
   tally.store(nv, st);
   return Err::ok;
 }
 
 void naive_step(uint32_t nv, const Params& p, double still_mm, double* x, ObjectStep& st) {
-  MotionTally tally{still_mm};
+  MotionTally tally{still_mm, 0.0};
   for (uint32_t v = 0; v < nv; ++v) {
     if (!st.has[v]) continue;
-    double d2 = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double dv = p.step_size * (st.target[3 * size_t(v) + a] - x[3 * size_t(v) + a]);
-      x[3 * size_t(v) + a] += dv;
-      d2 += dv * dv;
-    }
-    tally.add(d2);
+    double* xv = x + 3 * size_t(v);
+    double to[3];
+    for (int a = 0; a < 3; ++a) to[a] = xv[a] + p.step_size * (st.target[3 * size_t(v) + a] - xv[a]);
+    tally.add(xv, to, nullptr, nullptr);
+    for (int a = 0; a < 3; ++a) xv[a] = to[a];
   }
   tally.store(nv, st);
   st.flips_avoided = st.folds_avoided = 0;

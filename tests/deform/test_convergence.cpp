@@ -1,4 +1,5 @@
-// Convergence (src/deform/convergence.h): binary targets come to rest, polish,
+// Convergence (src/deform/convergence.h): binary targets come to rest (the
+// surface still, no front advancing), polish,
 // and converge at the second rest; grey-level targets refine for at most
 // partial_volume_steps steps after the first rest; restart and reset.
 #include <doctest/doctest.h>
@@ -7,6 +8,7 @@
 
 using ffseg::Convergence;
 using ffseg::ConvergenceRule;
+using ffseg::StepMotion;
 
 namespace {
 
@@ -26,45 +28,63 @@ ConvergenceRule grey_rule(uint32_t pv_steps) {
   return r;
 }
 
+// A step's motion: mean, moving, across the surface, the fronts' advance.
+StepMotion motion(double mean, uint32_t moving, double normal, double front) {
+  StepMotion m;
+  m.mean_mm = mean;
+  m.moving = moving;
+  m.normal_mm = normal;
+  m.front_mm = front;
+  return m;
+}
+
+// Grey-level targets read the mean (and the count) only.
+StepMotion grey(double mean, uint32_t moving) { return motion(mean, moving, mean, 0.0); }
+
 }  // namespace
 
-TEST_CASE("convergence, binary: rest, polish, rest again = converged") {
+TEST_CASE("convergence, binary: rest when the surface stands still and no front advances, polish, rest again") {
   const ConvergenceRule r = binary_rule();
   const uint32_t nv = 1000;
   Convergence c;
   CHECK_FALSE(c.converged());
   CHECK_FALSE(c.polishing());
-  CHECK(c.moving_threshold(r) == doctest::Approx(4.0 * 0.05));
-  // Moving: nothing changes.
-  CHECK_FALSE(c.record(r, 0.2, 500, nv));
+  CHECK(c.moving_threshold(r) == doctest::Approx(0.05));
+  // Moving across the surface: nothing changes.
+  CHECK_FALSE(c.record(r, motion(0.2, 500, 0.2, 0.0), nv));
   CHECK_FALSE(c.polishing());
-  // A small mean but more than 1 % of the vertices still moving: not at rest.
-  CHECK_FALSE(c.record(r, 0.01, 11, nv));
+  // The surface stands still but a front advances (a tube's tip): not at rest.
+  CHECK_FALSE(c.record(r, motion(0.1, 5, 0.003, 0.3), nv));
   CHECK_FALSE(c.polishing());
-  // The mean exactly at convergence_mm is not below it.
-  CHECK_FALSE(c.record(r, 0.05, 0, nv));
+  // Across the surface exactly at convergence_mm is not below it, nor a
+  // front's advance.
+  CHECK_FALSE(c.record(r, motion(0.05, 0, 0.05, 0.0), nv));
+  CHECK_FALSE(c.record(r, motion(0.01, 0, 0.01, 0.05), nv));
   CHECK_FALSE(c.polishing());
-  // First rest (10 of 1000 moving is within 1 %): polishing, not converged.
-  CHECK_FALSE(c.record(r, 0.049, 10, nv));
+  // First rest: the vertices still slide (mean 0.1 mm, all of them moving)
+  // but not across the surface, and the fronts stand: polishing.
+  CHECK_FALSE(c.record(r, motion(0.1, 1000, 0.02, 0.01), nv));
   CHECK(c.polishing());
   CHECK_FALSE(c.refining());
   CHECK(c.moving_threshold(r) == doctest::Approx(0.75 * 0.05));
-  // Moving again while polishing: still polishing, not converged.
-  CHECK_FALSE(c.record(r, 0.3, 300, nv));
+  // Polishing: the vertices' own motion decides. A small mean with more
+  // than 1 % of them moving is no rest, nor a large one.
+  CHECK_FALSE(c.record(r, motion(0.01, 11, 0.0, 0.0), nv));
+  CHECK_FALSE(c.record(r, motion(0.3, 300, 0.3, 0.0), nv));
   CHECK(c.polishing());
-  // Second rest: converged, and it stays so.
-  CHECK(c.record(r, 0.01, 0, nv));
+  // Second rest (10 of 1000 moving is within 1 %): converged, and it stays so.
+  CHECK(c.record(r, motion(0.049, 10, 0.049, 0.0), nv));
   CHECK(c.converged());
   // restart(): moves again, but keeps having polished: the next rest converges.
   c.restart();
   CHECK_FALSE(c.converged());
   CHECK(c.polishing());
-  CHECK(c.record(r, 0.01, 0, nv));
+  CHECK(c.record(r, motion(0.01, 0, 0.01, 0.0), nv));
   // reset() (a new sphere): polishing forgotten, two rests needed again.
   c.reset();
   CHECK_FALSE(c.polishing());
-  CHECK_FALSE(c.record(r, 0.01, 0, nv));
-  CHECK(c.record(r, 0.01, 0, nv));
+  CHECK_FALSE(c.record(r, motion(0.01, 0, 0.01, 0.0), nv));
+  CHECK(c.record(r, motion(0.01, 0, 0.01, 0.0), nv));
 }
 
 TEST_CASE("convergence, grey-level: refining after the first rest, ended by a rest or the step budget") {
@@ -73,43 +93,43 @@ TEST_CASE("convergence, grey-level: refining after the first rest, ended by a re
     const ConvergenceRule r = grey_rule(3);
     Convergence c;
     // The moving count does not matter for grey-level targets.
-    CHECK_FALSE(c.record(r, 0.01, 900, nv));
+    CHECK_FALSE(c.record(r, grey(0.01, 900), nv));
     CHECK(c.refining());
     CHECK_FALSE(c.polishing());
-    CHECK(c.moving_threshold(r) == doctest::Approx(4.0 * 0.05));  // no polishing factor
-    CHECK_FALSE(c.record(r, 0.4, 900, nv));  // refine step 1
-    CHECK_FALSE(c.record(r, 0.4, 900, nv));  // 2
-    CHECK(c.record(r, 0.4, 900, nv));        // 3 = partial_volume_steps
+    CHECK(c.moving_threshold(r) == doctest::Approx(0.05));  // no polishing factor
+    CHECK_FALSE(c.record(r, grey(0.4, 900), nv));  // refine step 1
+    CHECK_FALSE(c.record(r, grey(0.4, 900), nv));  // 2
+    CHECK(c.record(r, grey(0.4, 900), nv));        // 3 = partial_volume_steps
     CHECK(c.converged());
   }
   SUBCASE("a rest ends refining") {
     const ConvergenceRule r = grey_rule(10);
     Convergence c;
-    CHECK_FALSE(c.record(r, 0.5, 0, nv));
+    CHECK_FALSE(c.record(r, grey(0.5, 0), nv));
     CHECK_FALSE(c.refining());
-    CHECK_FALSE(c.record(r, 0.04, 0, nv));
+    CHECK_FALSE(c.record(r, grey(0.04, 0), nv));
     CHECK(c.refining());
-    CHECK_FALSE(c.record(r, 0.2, 0, nv));
-    CHECK(c.record(r, 0.02, 0, nv));
+    CHECK_FALSE(c.record(r, grey(0.2, 0), nv));
+    CHECK(c.record(r, grey(0.02, 0), nv));
   }
   SUBCASE("no partial-volume steps: the first rest converges") {
     const ConvergenceRule r = grey_rule(0);
     Convergence c;
-    CHECK_FALSE(c.record(r, 0.06, 0, nv));
-    CHECK(c.record(r, 0.04, 999, nv));
+    CHECK_FALSE(c.record(r, grey(0.06, 0), nv));
+    CHECK(c.record(r, grey(0.04, 999), nv));
     CHECK_FALSE(c.refining());
   }
   SUBCASE("restart forgets the refining phase and its steps") {
     const ConvergenceRule r = grey_rule(2);
     Convergence c;
-    CHECK_FALSE(c.record(r, 0.01, 0, nv));  // refining
-    CHECK_FALSE(c.record(r, 0.5, 0, nv));   // refine step 1
+    CHECK_FALSE(c.record(r, grey(0.01, 0), nv));  // refining
+    CHECK_FALSE(c.record(r, grey(0.5, 0), nv));   // refine step 1
     c.restart();
     CHECK_FALSE(c.refining());
     CHECK_FALSE(c.converged());
-    CHECK_FALSE(c.record(r, 0.01, 0, nv));  // refining again, from step 0
-    CHECK_FALSE(c.record(r, 0.5, 0, nv));   // 1
-    CHECK(c.record(r, 0.5, 0, nv));         // 2
+    CHECK_FALSE(c.record(r, grey(0.01, 0), nv));  // refining again, from step 0
+    CHECK_FALSE(c.record(r, grey(0.5, 0), nv));   // 1
+    CHECK(c.record(r, grey(0.5, 0), nv));         // 2
   }
 }
 
@@ -118,35 +138,35 @@ TEST_CASE("convergence, grey-level: a creep below twice the threshold for three 
   {
     const ConvergenceRule r = grey_rule(0);
     Convergence c;
-    CHECK_FALSE(c.record(r, 0.06, 10, nv));
-    CHECK_FALSE(c.record(r, 0.09, 10, nv));
-    CHECK_FALSE(c.record(r, 0.2, 10, nv));  // a real move breaks the run
-    CHECK_FALSE(c.record(r, 0.06, 10, nv));
-    CHECK_FALSE(c.record(r, 0.07, 10, nv));
-    CHECK(c.record(r, 0.06, 10, nv));  // the third in a row
+    CHECK_FALSE(c.record(r, grey(0.06, 10), nv));
+    CHECK_FALSE(c.record(r, grey(0.09, 10), nv));
+    CHECK_FALSE(c.record(r, grey(0.2, 10), nv));  // a real move breaks the run
+    CHECK_FALSE(c.record(r, grey(0.06, 10), nv));
+    CHECK_FALSE(c.record(r, grey(0.07, 10), nv));
+    CHECK(c.record(r, grey(0.06, 10), nv));  // the third in a row
   }
   {
     const ConvergenceRule r = grey_rule(2);  // the creep's rest starts the partial-volume steps
     Convergence c;
-    for (int k = 0; k < 3; ++k) CHECK_FALSE(c.record(r, 0.07, 10, nv));
+    for (int k = 0; k < 3; ++k) CHECK_FALSE(c.record(r, grey(0.07, 10), nv));
     CHECK(c.refining());
-    CHECK_FALSE(c.record(r, 0.07, 10, nv));  // counted afresh: 1 of the 2 steps
-    CHECK(c.record(r, 0.07, 10, nv));        // the budget is spent
+    CHECK_FALSE(c.record(r, grey(0.07, 10), nv));  // counted afresh: 1 of the 2 steps
+    CHECK(c.record(r, grey(0.07, 10), nv));        // the budget is spent
   }
   {
     const ConvergenceRule r = binary_rule();
     Convergence c;
-    for (int k = 0; k < 10; ++k) CHECK_FALSE(c.record(r, 0.07, 5, nv));
+    for (int k = 0; k < 10; ++k) CHECK_FALSE(c.record(r, grey(0.07, 5), nv));
     CHECK_FALSE(c.polishing());
   }
   {  // restart forgets the run
     const ConvergenceRule r = grey_rule(0);
     Convergence c;
-    CHECK_FALSE(c.record(r, 0.07, 10, nv));
-    CHECK_FALSE(c.record(r, 0.07, 10, nv));
+    CHECK_FALSE(c.record(r, grey(0.07, 10), nv));
+    CHECK_FALSE(c.record(r, grey(0.07, 10), nv));
     c.restart();
-    CHECK_FALSE(c.record(r, 0.07, 10, nv));
-    CHECK_FALSE(c.record(r, 0.07, 10, nv));
-    CHECK(c.record(r, 0.07, 10, nv));
+    CHECK_FALSE(c.record(r, grey(0.07, 10), nv));
+    CHECK_FALSE(c.record(r, grey(0.07, 10), nv));
+    CHECK(c.record(r, grey(0.07, 10), nv));
   }
 }
