@@ -247,10 +247,21 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
   const int64_t cap = kNoisePoints;
   int64_t ns = 0;
   float* vals = scratch_;
+  float* dif[3] = {scratch_ + cap, scratch_ + 3 * cap, scratch_ + 5 * cap};
+  int64_t nd[3] = {0, 0, 0};
   lat.for_each([&](int64_t i, int64_t j, int64_t k) {
     const double x = vol.at(i, j, k);
     if (!std::isfinite(x) || ns >= cap) return;  // non-finite voxels take no part in the statistics
     vals[ns++] = float(x);
+    const int64_t p[3] = {i, j, k};
+    for (int a = 0; a < 3; ++a)
+      for (int side = -1; side <= 1; side += 2) {
+        int64_t q[3] = {p[0], p[1], p[2]};
+        q[a] += side;
+        if (q[a] < slo_[a] || q[a] >= shi_[a]) continue;
+        const double d = std::fabs(vol.at(q[0], q[1], q[2]) - x);
+        if (std::isfinite(d)) dif[a][nd[a]++] = float(d);
+      }
   });
   if (ns == 0) {
     p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
@@ -288,82 +299,15 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
       c_hi_ = nth_of(vals, nk, int64_t(std::ceil(0.99 * double(nk - 1))));
     }
   }
-  sigma_n_ = noise_at_decorrelation_lag(vol, lat);
-}
-
-// The noise scale at the lag where the noise has decorrelated (see the header
-// note). At lag L along axis a, over the lattice voxels x_i of the statistics
-// box (their neighbours at +-L inside it):
-//   s_a(L)   = 1.4826 median|x_{i+-L} - x_i| / sqrt(2)       (Black et al.'s scale at lag L)
-//   rho_a(L) = (m_A^2 - m_B^2) / (m_A^2 + m_B^2),  m_A = median|x_{i+L} - x_{i-L}|,
-//              m_B = median|x_{i+L} - 2 x_i + x_{i-L}|
-// rho_a(L) is Gnanadesikan and Kettenring's robust correlation of the two
-// increments u = x_{i+L} - x_i and v = x_i - x_{i-L} (u + v and u - v are the
-// lag-2L and second differences), i.e. gamma(2L) / (2 gamma(L)) - 1 for the
-// variogram gamma: -1/2 for white noise (and for any noise already
-// decorrelated at L: gamma(2L) = gamma(L)), 0 for a random walk (gamma linear),
-// towards +1 for a field that is smooth at L. Noise resampled onto a finer
-// grid (trilinear: the 1 mm CT made from 3 mm) or shaped by a reconstruction
-// kernel is smooth at lag 1 (rho about +0.9 on the 1 mm CT) and its lag-1
-// differences read a fraction of its spread (2-3 HU for 6-8 HU). The chosen
-// lag is the first at which the increments are no longer positively
-// correlated, rho <= 0 (the median over the axes: one axis' sampling noise
-// does not decide it); on a grid with white noise that is lag 1 (rho near
-// -1/2 even with anatomy in the box, whose smooth variation pushes rho up:
-// -0.23 in the 3 mm CT's left kidney box, the largest of its organs), so the
-// estimate there is the lag-1 one it always was. sigma_n = min over the axes
-// of s_a(L*) (anatomy only inflates an axis). No lag up to kMaxNoiseLag (or
-// as far as the box holds 16 pairs) with rho <= 0: lag 1, as before.
-double SmoothedRoi::noise_at_decorrelation_lag(const VolumeView& vol, const BoxLattice& lat) {
-  const int64_t cap = kNoisePoints;
-  float* cd = scratch_;            // both sides' |x_{i+-L} - x_i|: 2 cap
-  float* ad = scratch_ + 2 * cap;  // |x_{i+L} - x_{i-L}|: cap
-  float* bd = scratch_ + 3 * cap;  // |x_{i+L} - 2 x_i + x_{i-L}|: cap
-  double lag1 = -1;
-  for (int64_t L = 1; L <= kMaxNoiseLag; ++L) {
-    double rho[3];
-    int ns = 0, nr = 0;
-    double best = -1;
-    for (int a = 0; a < 3; ++a) {
-      int64_t nc = 0, nab = 0;
-      lat.for_each([&](int64_t i, int64_t j, int64_t k) {
-        const double x = vol.at(i, j, k);
-        if (!std::isfinite(x)) return;
-        int64_t q[3] = {i, j, k}, r[3] = {i, j, k};
-        q[a] += L;
-        r[a] -= L;
-        const bool hq = q[a] < shi_[a], hr = r[a] >= slo_[a];
-        const double xq = hq ? vol.at(q[0], q[1], q[2]) : 0, xr = hr ? vol.at(r[0], r[1], r[2]) : 0;
-        const bool fq = hq && std::isfinite(xq), fr = hr && std::isfinite(xr);
-        if (fq) cd[nc++] = float(std::fabs(xq - x));
-        if (fr) cd[nc++] = float(std::fabs(xr - x));
-        if (fq && fr) {
-          ad[nab] = float(std::fabs(xq - xr));
-          bd[nab] = float(std::fabs(xq + xr - 2 * x));
-          ++nab;
-        }
-      });
-      if (nc >= 16) {
-        const double sa = 1.4826 * double(nth_of(cd, nc, nc / 2)) / std::sqrt(2.0);
-        ++ns;
-        if (best < 0 || sa < best) best = sa;
-      }
-      if (nab >= 16) {
-        const double ma = nth_of(ad, nab, nab / 2), mb = nth_of(bd, nab, nab / 2);
-        const double den = ma * ma + mb * mb;
-        rho[nr++] = den > 0 ? (ma * ma - mb * mb) / den : -0.5;  // a flat box: nothing to decorrelate
-      }
-    }
-    if (L == 1) lag1 = best;
-    if (ns == 0 || nr == 0) break;  // the box holds no more pairs at this lag
-    for (int u = 1; u < nr; ++u)  // at most three: insertion sort
-      for (int v = u; v > 0 && rho[v] < rho[v - 1]; --v) std::swap(rho[v], rho[v - 1]);
-    const double med = nr % 2 ? rho[nr / 2] : 0.5 * (rho[nr / 2 - 1] + rho[nr / 2]);
-    if (med <= 0) return best;
+  double best = -1;
+  for (int a = 0; a < 3; ++a) {
+    if (nd[a] < 16) continue;
+    const double med = nth_of(dif[a], nd[a], nd[a] / 2);
+    const double sa = 1.4826 * med / std::sqrt(2.0);
+    if (best < 0 || sa < best) best = sa;
   }
-  return lag1 < 0 ? 0 : lag1;
+  sigma_n_ = best < 0 ? 0 : best;
 }
-
 
 namespace {
 

@@ -52,7 +52,6 @@
 #include <cmath>
 
 #include "arena.h"
-#include "box_lattice.h"
 #include "cpu_dispatch.h"
 #include "volume.h"
 
@@ -84,7 +83,6 @@ enum class RoiStatus : int {
 class SmoothedRoi {
  public:
   static constexpr uint32_t kNoisePoints = 4681;  // 7 floats each: the 32768 of the scratch's floor
-  static constexpr int64_t kMaxNoiseLag = 16;      // the longest lag of the noise estimate (voxels)
 
   // Floats per sweep plane for a region of at most max_voxels voxels.
   static int64_t plane_capacity(int64_t max_voxels);
@@ -194,7 +192,6 @@ class SmoothedRoi {
 
  private:
   void estimate_noise(const VolumeView& vol);
-  double noise_at_decorrelation_lag(const VolumeView& vol, const BoxLattice& lat);
   void diffuse(uint32_t iterations);
   // Copies the stored region of an integer volume (typed rows); false: the
   // generic per-voxel copy must do it (floats, or extreme rescale factors).
