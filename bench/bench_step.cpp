@@ -29,7 +29,8 @@ int main(int argc, char** argv) {
   int steps = 150;
   if (argc > 1) steps = std::atoi(argv[1]);
   const ffseg_test::Phantom cup = ffseg_test::cup_phantom();
-  const char* stage_names[FFSEG_STAGE_COUNT] = {"search", "flips", "diffusion", "folds", "assembly", "factor", "solve", "features", "guard"};
+  const char* stage_names[FFSEG_STAGE_COUNT] = {"search", "flips",    "diffusion", "folds",  "assembly",
+                                               "factor", "solve",    "features",  "guard",  "regions"};
   std::printf("ffseg_step on the cup phantom (128^3 u8, sphere r = 60 mm around it), run to convergence (at most %d "
               "steps), medians of steps 2..end, one thread\n"
               "(factor = storing the matrix, factorising it and the forward substitution, one pass; bench_solver: "
