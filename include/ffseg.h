@@ -197,8 +197,10 @@ typedef struct ffseg_params {
   double search_step_mm;        /* sample spacing along the normal, mm; 0 = half the smallest
                                    voxel spacing; [0, 100]; default 0 */
   double convergence_mm;        /* converged when every object's mean displacement is below (binary
-                                   targets: and at most 1% of its vertices move more than 4x it, 0.75x
-                                   while polishing); [0, 100]; default 0.05 */
+                                   targets: first the mean motion along the vertex normals and the mean
+                                   advance toward their targets of the vertices whose target lies beyond
+                                   a voxel; then, while polishing, the mean displacement with at most 1%
+                                   of the vertices moving more than 0.75x it); [0, 100]; default 0.05 */
   uint32_t diffusion_iterations; /* rounds of displacement averaging (eq. 4.2.2); 0..100; 0 = automatic:
                                     20 (n / 33)^2 for mesh resolution n (1 at least); with binary targets,
                                     once an object has come to rest it polishes with a twentieth of the
