@@ -37,6 +37,8 @@ class Convergence {
   void restart() {
     converged_ = false;
     stalled_ = false;
+    releasing_ = false;
+    released_ = false;
     refining_ = false;
     refine_steps_ = 0;
     creep_ = 0;
@@ -52,6 +54,14 @@ class Convergence {
   bool polishing() const { return polish_; }
   // Grey-level targets: came to rest once, now on partial-volume boundaries.
   bool refining() const { return refining_; }
+  // Grey-level targets: the first rest was a stall; the loops are re-spaced
+  // until the object rests again (a way out of the jam, see stalled()).
+  bool releasing() const { return releasing_; }
+  // Whether this step re-spaces the loops (loop_spacing.h): binary targets
+  // until their first rest, grey levels while releasing a stall. The motion
+  // across the surface and at the fronts (StepMotion) is then what decides
+  // the rest.
+  bool respacing(const ConvergenceRule& r) const { return r.binary ? !polish_ : releasing_; }
 
   // A vertex that moves more than this counts as moving (StepMotion::moving).
   double moving_threshold(const ConvergenceRule& r) const;
@@ -63,8 +73,10 @@ class Convergence {
   // still while more than kStallShare of its vertices, on balance, still
   // pointed more than a voxel beyond it on one side (the guard, the fold
   // prevention or a creeping mean held it; a mesh resting at a noisy
-  // boundary has far targets on both sides that cancel). It still counts as
-  // converged (it no longer steps); the engine flags it.
+  // boundary has far targets on both sides that cancel). Grey-level targets
+  // first try a way out (releasing()) and are judged again at the next
+  // rest. A stall still counts as converged (it no longer steps); the
+  // engine flags it.
   bool stalled() const { return stalled_; }
 
  private:
@@ -74,6 +86,8 @@ class Convergence {
   uint32_t creep_ = 0;
   bool converged_ = false;
   bool stalled_ = false;
+  bool releasing_ = false;
+  bool released_ = false;
 };
 
 }  // namespace ffseg

@@ -444,7 +444,7 @@ Err Engine::step(StepReport* r) {
         for (uint32_t j = 0; j < N; ++j)
           if (j != i && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
       const Err e = deform_step(mesh_, p, &vol_, o.convergence.moving_threshold(rule()),
-                                o.convergence.polishing(), o.x, o.step, scratch_,
+                                o.convergence.respacing(rule()), o.x, o.step, scratch_,
                                 scratch_.obstacles, others, r->stage_us, msg_, kMsgLen);
       if (e != Err::ok) return e;
     }

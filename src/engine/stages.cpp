@@ -275,7 +275,7 @@ void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, O
   st.folds_avoided = prevent_folds(m, x, st.disp, st.has, p.flip_tau, p.step_size, s.folds);
 }
 
-Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, bool polishing,
+Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, bool respace,
                 double* x, ObjectStep& st, StepScratch& s, const double* const* others, uint32_t other_count,
                 uint64_t stage_us[kStageCount], char* msg, size_t msg_len) {
   const uint32_t nv = m.nv;
@@ -326,18 +326,12 @@ Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, do
       std::snprintf(msg, msg_len, "step: the solve produced non-finite positions; mesh unchanged");
       return Err::numeric;
     }
-  // Binary targets: the loops re-spaced along themselves (loop_spacing.h), so
-  // that a mesh growing into a tube or horn brings vertices into it. Grey
-  // levels do not: there the same freedom follows the model out of the
-  // organ (Colin27's eight structures 0.546 -> 0.361, the shared CT's aorta
-  // 48 -> 1,149 ml; BENCHMARKS.md section 12). Between the solve and the
-  // guard, s.tmp is free, and the guard checks the update as it will be.
-  // Not while polishing: the mesh has met its boundary, and on a folded one
-  // the re-spacing would slide it within the surface for good (the brain
-  // mask at n = 49 did not come to rest in 400 steps).
-  const bool binary = p.target_mode == TargetMode::binary;
-  if (binary && !polishing && loop_spacing_scratch(m) <= 3 * uint64_t(nv))
-    respace_loops(m, s.rhs, kLoopRespacing, s.tmp);
+  // The loops re-spaced along themselves (loop_spacing.h; when:
+  // Convergence::respacing()), so that a mesh growing into a tube or horn
+  // brings vertices into it and a creased patch spreads. Between the solve
+  // and the guard, s.tmp is free, and the guard checks the update as it
+  // will be.
+  if (respace && loop_spacing_scratch(m) <= 3 * uint64_t(nv)) respace_loops(m, s.rhs, kLoopRespacing, s.tmp);
   // The mesh ends at the scan's box (grid_box.h): a solve that carries a
   // vertex beyond it (the smoothness terms round a cap pressed on a face)
   // puts it back on the face, before the guard, which then checks the
@@ -371,15 +365,15 @@ Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, do
   st.guard_held = 0;
   for (uint32_t v = 0; v < nv; ++v) st.guard_held += s.weight[v] < 0.5;  // the guard's shares
   lap(kStageGuard);
-  // Binary targets rest on the motion across the surface and the fronts'
+  // Re-spaced meshes rest on the motion across the surface and the fronts'
   // advance (convergence.cpp), measured against the mesh as it was.
   const double* normals = nullptr;
-  if (binary) {
+  if (respace) {
     vertex_normals(m, x, s.normals);
     normals = s.normals;
   }
   // A voxel: the largest spacing, as for the far targets of the stall rule.
-  const bool fronts = binary && grid != nullptr;
+  const bool fronts = respace && grid != nullptr;
   const double* sp = fronts ? grid->spacing() : nullptr;
   MotionTally tally{still_mm, sp ? std::fmax(sp[0], std::fmax(sp[1], sp[2])) : 0.0};
   for (uint32_t v = 0; v < nv; ++v) {

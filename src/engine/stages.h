@@ -63,15 +63,15 @@ void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, O
 
 // The Laplacian deformation (4.2.5) towards x + alpha d, factorised and
 // solved, and the guarded update: moves x (3 nv) to the new positions and
-// records the motion in st.motion (vertices moving beyond still_mm; for
-// binary targets also across the surface and at the fronts). Binary targets
-// re-space their loops unless the object is polishing. Times the assembly, factor, solve and guard stages into
+// records the motion in st.motion (vertices moving beyond still_mm; with
+// respace, Convergence::respacing(), the loops are re-spaced and the motion
+// across the surface and at the fronts recorded too). Times the assembly, factor, solve and guard stages into
 // stage_us. others[0..other_count): the other objects' positions, which
 // the update may not touch (their meshes, as they are when this object
 // moves). grid (optional): the volume whose box the new positions are
 // clamped to before the guard (grid_box.h; a mesh inside it stays inside).
 // On failure x is unchanged and msg says why.
-Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, bool polishing,
+Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, bool respace,
                 double* x, ObjectStep& st, StepScratch& s, const double* const* others, uint32_t other_count,
                 uint64_t stage_us[kStageCount], char* msg, size_t msg_len);
 

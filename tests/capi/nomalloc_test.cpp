@@ -134,9 +134,13 @@ TEST_CASE("create, set_volume, init_sphere, extract_mesh, rasterize, step and de
     // Grey-level mode: smoothing of the crop, model fitting, intensity search.
     ffseg_params grey = params;
     grey.target_mode = FFSEG_TARGET_INTENSITY;
-    // Both objects rest after the first step (a huge convergence_mm): the
-    // second runs the partial-volume search, the third finds them converged.
+    // Both objects rest after the first step (a huge convergence_mm) with
+    // their targets still far beyond them, a stall: the second step
+    // re-spaces their loops (the release) and, moving them by a thousandth
+    // of the way (a tiny step size), finds them at rest and still stalled;
+    // the third runs the partial-volume search and finds them converged.
     grey.convergence_mm = 100;
+    grey.step_size = 1e-3;
     st_grey = ffseg_set_params(e, &grey);
     // A second object beside the ball (objects may not overlap): with two
     // placed, the steps also compute bounding regions and guard contacts.
@@ -163,9 +167,10 @@ TEST_CASE("create, set_volume, init_sphere, extract_mesh, rasterize, step and de
   CHECK(st_mask == FFSEG_OK);
   CHECK(st_grey == FFSEG_OK);
   CHECK(st_sphere2 == FFSEG_OK);
-  CHECK(st_first_grey == FFSEG_OK);      // at rest, into the partial-volume steps
-  // At rest after one step by the huge tolerance, with most targets still
-  // beyond the meshes: a stall (FFSEG_OBJECT_STALLED), never CONVERGED.
+  CHECK(st_first_grey == FFSEG_OK);      // at rest, stalled: into the release
+  // At rest by the huge tolerance, with most targets still beyond the
+  // meshes after the release too: a stall (FFSEG_OBJECT_STALLED), never
+  // CONVERGED.
   CHECK(st_step == FFSEG_DEGENERATE);
   CHECK((info.flags_all & FFSEG_OBJECT_STALLED) != 0);
   CHECK(st_init_mesh == FFSEG_OK);

@@ -170,3 +170,51 @@ TEST_CASE("convergence, grey-level: a creep below twice the threshold for three 
     CHECK(c.record(r, grey(0.07, 10), nv));
   }
 }
+
+TEST_CASE("convergence, grey-level: a stall at the first rest re-spaces the loops until the next rest, then is judged again") {
+  const uint32_t nv = 1000;
+  SUBCASE("still stalled after the release: converged and flagged") {
+    const ConvergenceRule r = grey_rule(0);
+    Convergence c;
+    CHECK_FALSE(c.respacing(r));
+    CHECK_FALSE(c.record(r, grey(0.5, 900), nv, 0.2));
+    CHECK_FALSE(c.releasing());
+    // At rest with a fifth of the vertices, on balance, pointing outward
+    // beyond a voxel: a stall, released rather than converged.
+    CHECK_FALSE(c.record(r, grey(0.01, 0), nv, 0.2));
+    CHECK(c.releasing());
+    CHECK(c.respacing(r));
+    CHECK_FALSE(c.stalled());
+    // Releasing: the vertices slide (a mean of 1 mm), the surface creeps
+    // (0.07 mm, below the creep threshold, which does not apply here).
+    for (int k = 0; k < 5; ++k) CHECK_FALSE(c.record(r, motion(1.0, 900, 0.07, 0.0), nv, 0.2));
+    // A front still advancing: no rest either.
+    CHECK_FALSE(c.record(r, motion(1.0, 900, 0.01, 0.2), nv, 0.2));
+    // The surface still, no front: the rest ends the release; still stalled.
+    CHECK(c.record(r, motion(0.3, 900, 0.01, -0.1), nv, 0.2));
+    CHECK(c.stalled());
+    CHECK_FALSE(c.releasing());
+    CHECK_FALSE(c.respacing(r));
+  }
+  SUBCASE("released: then the partial-volume steps, and no second release") {
+    const ConvergenceRule r = grey_rule(1);
+    Convergence c;
+    CHECK_FALSE(c.record(r, grey(0.01, 0), nv, -0.15));  // inward stall
+    CHECK(c.releasing());
+    CHECK_FALSE(c.record(r, motion(0.2, 0, 0.01, 0.0), nv, 0.05));
+    CHECK_FALSE(c.stalled());
+    CHECK(c.refining());
+    CHECK(c.record(r, grey(0.4, 0), nv, 0.3));  // the one partial-volume step
+    CHECK_FALSE(c.stalled());                   // judged at the rests only
+  }
+  SUBCASE("binary targets never release (they re-space until their first rest anyway)") {
+    const ConvergenceRule r = binary_rule();
+    Convergence c;
+    CHECK(c.respacing(r));
+    CHECK_FALSE(c.record(r, motion(0.3, 0, 0.01, 0.0), nv, 0.2));
+    CHECK(c.stalled());
+    CHECK_FALSE(c.releasing());
+    CHECK(c.polishing());
+    CHECK_FALSE(c.respacing(r));
+  }
+}
