@@ -58,6 +58,9 @@ struct TriangleScratch {
   // are usually these, and then the cache is swapped in instead of computed.
   double* new_key = nullptr;
   bool new_key_valid = false;
+  // Whether the guard's last test stopped before refreshing every face of
+  // the face_*_new cache (then it holds no whole position set).
+  bool face_new_partial = false;
   // The yes/no query (mark == nullptr) first tries to certify the mesh's
   // local windows free of crossings (patch_certificate.h).
   PatchCertificate cert;
