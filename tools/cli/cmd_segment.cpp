@@ -771,7 +771,8 @@ bool warn_stalls(const SegmentRequest& rq, const EngineRun& run) {
     any = true;
     const bool out = run.far[k][0] >= run.far[k][1];
     std::fprintf(stderr,
-                 "ffseg: warning: object %u (%s) stalled: it came to rest with %.0f vertices pointing more than a "
+                 "ffseg: warning: object %u (%s) stalled: it came to rest (grey levels: again, after its contour loops "
+                 "were re-spaced) with %.0f vertices pointing more than a "
                  "voxel %s and %.0f %s; its mesh %s its boundary (outputs written; exit status %d)\n",
                  k + 1, rq.names[k].c_str(), out ? run.far[k][0] : run.far[k][1], out ? "outward" : "inward",
                  out ? run.far[k][1] : run.far[k][0], out ? "inward" : "outward",
