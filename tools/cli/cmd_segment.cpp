@@ -306,7 +306,9 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
     // Coarse to fine: the first run's mesh, resampled (its model still from
     // the sphere); a mesh the engine refuses starts from the sphere.
     st = FFSEG_ERR_INVALID_ARGUMENT;
-    if (run->start_from_coarse && k < run->start_fine.size() && run->start_fine[k])
+    const bool mixed = run->start_from_coarse &&
+                       std::find(run->start_fine.begin(), run->start_fine.end(), uint8_t(1)) != run->start_fine.end();
+    if (mixed && run->start_fine[k])
       st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->fine[k].data(), run->fine[k].size() / 3);
     if (st != FFSEG_OK && run->start_from_coarse)
       st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->coarse[k].data(),
@@ -315,6 +317,17 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
       std::fprintf(stderr, "ffseg: object %u (%s): the engine refused its first-run mesh (%s); it starts from "
                    "its sphere\n", k + 1, rq.names[k].c_str(), ffseg_last_error(ws.e));
     if (st != FFSEG_OK) st = ffseg_init_sphere(ws.e, k, run->centres_mm[k].data(), s.c[3]);
+    // Meshes of two runs may touch where one run's never do, and a
+    // neighbour's finer mesh may even hold the sphere: then every object
+    // starts from its first-run mesh, as they all did before.
+    if (mixed && st != FFSEG_OK) {
+      if (!rq.quiet)
+        std::fprintf(stderr, "ffseg: object %u (%s): no start beside the finer meshes (%s); every object starts "
+                     "from its first-run mesh\n", k + 1, rq.names[k].c_str(), ffseg_last_error(ws.e));
+      run->start_fine.assign(run->start_fine.size(), 0);
+      start_engine(rq, img, run);
+      return;
+    }
     if (st == FFSEG_ERR_SPHERE_OUTSIDE || st == FFSEG_ERR_INVALID_ARGUMENT) {
       const std::string detail = ffseg_last_error(ws.e);
       fail(kExitUsage, "object " + std::to_string(k + 1) + " (" + s.text + "): " +
