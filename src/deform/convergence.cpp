@@ -1,5 +1,4 @@
 #include "convergence.h"
-#include <cstdio>
 
 namespace ffseg {
 
@@ -59,8 +58,9 @@ bool Convergence::record(const ConvergenceRule& r, const StepMotion& m, uint32_t
   if (r.binary) {
     rest = polish_ ? rest && double(m.moving) <= kMovingShare * nv : m.normal_mm < c && m.front_mm < c;
   } else if (releasing_) {
-    // Re-spaced: the surface and its fronts, as for binary targets, and the
-    // creep read on them.
+    // Re-spaced: the surface and its fronts, as for binary targets. No creep
+    // rule here: it ended the right kidney's release after 5 steps (0.697
+    // against 0.763 after 31).
     rest = m.normal_mm < c && m.front_mm < c;
   } else {
     creep_ = m.mean_mm < kCreepFactor * c ? creep_ + 1 : 0;
