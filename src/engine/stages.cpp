@@ -212,8 +212,7 @@ void search_correspondences(const CubeSphere& m, const VolumeView& vol, const Pa
   }
   // A voxel: the largest spacing, so that a target inside the vertex's own
   // voxel in every direction is never far.
-  const double* sp = vol.spacing();
-  const double voxel = std::fmax(sp[0], std::fmax(sp[1], sp[2]));
+  const double voxel = vol.max_spacing();
   // A border vertex's target is another object's region, where a neighbour
   // holds it: a rest there is no stall. Nor is a target on the grid's face
   // (grid_box.h; the search ended there because the scan does, beyond reads
@@ -374,8 +373,7 @@ Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, do
   }
   // A voxel: the largest spacing, as for the far targets of the stall rule.
   const bool fronts = respace && grid != nullptr;
-  const double* sp = fronts ? grid->spacing() : nullptr;
-  MotionTally tally{still_mm, sp ? std::fmax(sp[0], std::fmax(sp[1], sp[2])) : 0.0};
+  MotionTally tally{still_mm, fronts ? grid->max_spacing() : 0.0};
   for (uint32_t v = 0; v < nv; ++v) {
     double* xv = x + 3 * size_t(v);
     const double to[3] = {s.rhs[v], s.rhs[size_t(nv) + v], s.rhs[size_t(2) * nv + v]};

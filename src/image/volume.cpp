@@ -186,6 +186,8 @@ double VolumeView::min_spacing() const {
   return m;
 }
 
+double VolumeView::max_spacing() const { return std::fmax(spacing_[0], std::fmax(spacing_[1], spacing_[2])); }
+
 double VolumeView::sample_nearest(const double w[3], double outside) const {
   double p[3];
   world_to_index(w, p);

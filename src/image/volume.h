@@ -72,6 +72,8 @@ class VolumeView {
   // Length in mm of one voxel step along each index axis.
   const double* spacing() const { return spacing_; }
   double min_spacing() const;
+  // The largest: a voxel's extent for "more than a voxel away".
+  double max_spacing() const;
   double slope() const { return slope_; }
   double intercept() const { return intercept_; }
   const double* affine() const { return A_; }      // 3x4 row-major

@@ -234,10 +234,10 @@ struct EngineRun {
   std::vector<std::vector<float>> coarse;
   std::vector<uint8_t> coarse_stalled, stalled, from_coarse;
   bool start_from_coarse = false;  // the next engine starts from `coarse`
-  // ... except the objects with start_fine[k]: the finer run came to rest
-  // well for them, and the next engine starts them from its meshes, fine[k].
+  // ... except the objects with a mesh in fine[k] (else empty): the finer
+  // run came to rest well for them, and the next engine starts them there.
   std::vector<std::vector<float>> fine;
-  std::vector<uint8_t> start_fine;
+  bool started_from_fine(uint32_t k) const { return start_from_coarse && k < fine.size() && !fine[k].empty(); }
   std::vector<std::array<double, 3>> far;  // outward, inward, vertices: at each object's last moving step
   // Seconds: every pass's engine setup; the last pass's steps (as stage_us).
   double t_setup = 0, t_stepping = 0;
@@ -299,6 +299,8 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
   if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_set_volume");
 
   run->centres_mm.assign(rq.objects(), {});
+  bool mixed = false;  // finer meshes beside first-run ones
+  for (uint32_t k = 0; k < rq.objects(); ++k) mixed = mixed || run->started_from_fine(k);
   for (uint32_t k = 0; k < rq.objects(); ++k) {
     const SphereArg& s = rq.spheres[k];
     run->centres_mm[k] =
@@ -306,9 +308,7 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
     // Coarse to fine: the first run's mesh, resampled (its model still from
     // the sphere); a mesh the engine refuses starts from the sphere.
     st = FFSEG_ERR_INVALID_ARGUMENT;
-    const bool mixed = run->start_from_coarse &&
-                       std::find(run->start_fine.begin(), run->start_fine.end(), uint8_t(1)) != run->start_fine.end();
-    if (mixed && run->start_fine[k])
+    if (run->started_from_fine(k))
       st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->fine[k].data(), run->fine[k].size() / 3);
     if (st != FFSEG_OK && run->start_from_coarse)
       st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->coarse[k].data(),
@@ -324,7 +324,7 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
       if (!rq.quiet)
         std::fprintf(stderr, "ffseg: object %u (%s): no start beside the finer meshes (%s); every object starts "
                      "from its first-run mesh\n", k + 1, rq.names[k].c_str(), ffseg_last_error(ws.e));
-      run->start_fine.assign(run->start_fine.size(), 0);
+      run->fine.clear();
       start_engine(rq, img, run);
       return;
     }
@@ -457,7 +457,6 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->coarse.clear();
   run->start_from_coarse = false;
   run->fine.clear();
-  run->start_fine.clear();
   run->from_coarse.assign(nobj, 0);
   auto pass = [&](int64_t limit) {
     const auto t_setup0 = std::chrono::steady_clock::now();
@@ -499,7 +498,6 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   const std::vector<uint64_t> fine_voxels = object_voxels(run->ws.e, img, nobj);
   int short_of = -1;
   run->fine.assign(nobj, {});
-  run->start_fine.assign(nobj, 0);
   for (uint32_t k = 0; k < nobj; ++k) {
     if (run->stalled[k] || double(fine_voxels[k]) < (1 - kShortOfFirstRun) * double(coarse_voxels[k])) {
       if (short_of < 0) short_of = int(k);
@@ -507,7 +505,6 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
     }
     // Not short: the next pass starts it where this one left it.
     run->fine[k] = mesh_vertices(run->ws.e, k);
-    run->start_fine[k] = 1;
   }
   if (short_of < 0) return;
   if (!rq.quiet)
@@ -667,7 +664,7 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
     }
     if (run.start_from_coarse) {
       o.set("kept_first_run_surface", run.from_coarse[k] != 0);
-      o.set("started_from_finer_run", k < run.start_fine.size() && run.start_fine[k] != 0);
+      o.set("started_from_finer_run", run.started_from_fine(k));
     }
     if (nobj > 1) {
       if (k < FFSEG_REPORT_OBJECTS) o.set("border_vertices", r.border_vertices);  // ffseg_step_info's reach
