@@ -23,7 +23,7 @@
   F(ffseg_params, bin_radius) F(ffseg_params, bin_separation)                               \
   F(ffseg_params, partial_volume_steps) F(ffseg_params, reserved1)                         \
   F(ffseg_params, region_width_mm) F(ffseg_params, border_weight)                           \
-  F(ffseg_params, region_interval) F(ffseg_params, reserved2)
+  F(ffseg_params, region_interval) F(ffseg_params, grey_respacing)
 
 #define FFSEG_VOLUME_FIELDS(F)                                                            \
   F(ffseg_volume, struct_size) F(ffseg_volume, voxel_type) F(ffseg_volume, data)            \

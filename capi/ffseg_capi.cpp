@@ -350,9 +350,8 @@ static ffseg_status set_params_call(ffseg_engine* e, const ffseg_params* p) {
     return FFSEG_ERR_STRUCT_SIZE;
   }
   // Refused now so that a later version may give the field a meaning with 0 as its default.
-  if (full.reserved1 != 0 || full.reserved2 != 0) {
-    std::snprintf(en->message_buffer(), Engine::kMsgLen, "params.%s must be 0",
-                  full.reserved1 != 0 ? "reserved1" : "reserved2");
+  if (full.reserved1 != 0) {
+    std::snprintf(en->message_buffer(), Engine::kMsgLen, "params.reserved1 must be 0");
     return FFSEG_ERR_INVALID_ARGUMENT;
   }
   ffseg::Params q;

@@ -312,7 +312,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           if (more & 512) p.border_weight = pick_double(in);
           if (more & 1024) p.region_interval = pick_u32(in);
           if (more & 2048) p.reserved1 = pick_u32(in);
-          if (more & 4096) p.reserved2 = pick_u32(in);
+          if (more & 4096) p.grey_respacing = pick_u32(in);
         }
         st = ffseg_set_params(e, (which & 4096) ? nullptr : &p);
         check_status(st, "set_params");

@@ -62,7 +62,7 @@ extern "C" {
 
 /* ---- Version ------------------------------------------------------------ */
 #define FFSEG_VERSION_MAJOR 0
-#define FFSEG_VERSION_MINOR 6
+#define FFSEG_VERSION_MINOR 7
 #define FFSEG_VERSION_PATCH 0
 #define FFSEG_VERSION_NUMBER \
   (FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH)
@@ -241,7 +241,16 @@ typedef struct ffseg_params {
   uint32_t region_interval;      /* steps between recomputations of the bounding regions (a region is
                                     also recomputed at once when its mesh comes within half of
                                     region_width_mm of its box); 1..1000; default 4 */
-  uint32_t reserved2;            /* must be 0; fills the tail padding, as reserved1 does */
+  /* Since 0.7.0 (0.3-0.6: reserved2, which had to be 0, the default): */
+  uint32_t grey_respacing;       /* grey-level targets re-space their contour loops, as binary targets
+                                    do, until they first come to rest (then the surface's motion and its
+                                    fronts' advance decide the rest, as for binary targets): a mesh grows
+                                    along a tube or a horn from a sphere at one end. Off by default: it
+                                    also carries a mesh through any gap that the intensity model leaves
+                                    open between the organ and a neighbour of its grey level (abdominal
+                                    CT: the aorta and gallbladder leak; Colin27's nuclei into their
+                                    neighbours). Without it a grey-level mesh re-spaces only to leave a
+                                    stall. 0..1; default 0 */
 } ffseg_params;
 
 /* Fills *p with the defaults above and struct_size = sizeof(ffseg_params). */
@@ -249,7 +258,7 @@ FFSEG_API void ffseg_params_init_default(ffseg_params* p);
 
 /* Validates every field; on an error nothing changes, the previous parameters
  * stay, and the message names the field. Errors: NULL_POINTER, STRUCT_SIZE,
- * INVALID_ARGUMENT (reserved1 or reserved2 not 0 included). Writes nothing the caller owns. */
+ * INVALID_ARGUMENT (reserved1 not 0 included). Writes nothing the caller owns. */
 FFSEG_API ffseg_status ffseg_set_params(ffseg_engine* e, const ffseg_params* p);
 
 /* ---- The volume ------------------------------------------------------------ */

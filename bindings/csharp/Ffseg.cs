@@ -112,7 +112,7 @@ public struct Params {
   public double RegionWidthMm;   // several objects (0.3.0): 0 = automatic, 10 mm
   public double BorderWeight;
   public uint RegionInterval;
-  public uint Reserved2;
+  public uint GreyRespacing;     // 0.7.0 (Reserved2 before): grey levels re-space their loops until the first rest
 
   public static Params Default() {
     Params p;

@@ -83,7 +83,7 @@
     ["bin_min_count", "u32"], ["smoothing_kappa", "f64"], ["intensity_gamma", "f64"],
     ["sigma_floor_fraction", "f64"], ["bin_radius", "f64"], ["bin_separation", "f64"],
     ["partial_volume_steps", "u32"], ["reserved1", "u32"], ["region_width_mm", "f64"],
-    ["border_weight", "f64"], ["region_interval", "u32"], ["reserved2", "u32"]]);
+    ["border_weight", "f64"], ["region_interval", "u32"], ["grey_respacing", "u32"]]);  // since 0.7.0 (reserved2 before)
   const VOLUME = layout([["struct_size", "u32"], ["voxel_type", "u32"], ["data", "ptr"],
     ["data_bytes", "i64"], ["offset", "i64"], ["dims", "i64", 3], ["strides", "i64", 3],
     ["index_to_world", "f64", 16], ["rescale_slope", "f64"], ["rescale_intercept", "f64"]]);

@@ -57,7 +57,7 @@ bool Convergence::record(const ConvergenceRule& r, const StepMotion& m, uint32_t
   bool rest = m.mean_mm < c;
   if (r.binary) {
     rest = polish_ ? rest && double(m.moving) <= kMovingShare * nv : m.normal_mm < c && m.front_mm < c;
-  } else if (releasing_) {
+  } else if (respacing(r)) {
     // Re-spaced: the surface and its fronts, as for binary targets. No creep
     // rule here: it ended the right kidney's release after 5 steps (0.697
     // against 0.763 after 31).

@@ -15,6 +15,9 @@ struct ConvergenceRule {
   // partial-volume boundaries for at most partial_volume_steps steps instead.
   bool binary = true;
   uint32_t partial_volume_steps = 0;
+  // Grey-level targets re-space their loops until the first rest
+  // (Params::grey_respacing): their rest is then judged as binary targets'.
+  bool grey_respacing = false;
 };
 
 // How one step moved an object's mesh (stages.cpp's tally).
@@ -58,10 +61,12 @@ class Convergence {
   // until the object rests again (a way out of the jam, see stalled()).
   bool releasing() const { return releasing_; }
   // Whether this step re-spaces the loops (loop_spacing.h): binary targets
-  // until their first rest, grey levels while releasing a stall. The motion
-  // across the surface and at the fronts (StepMotion) is then what decides
-  // the rest.
-  bool respacing(const ConvergenceRule& r) const { return r.binary ? !polish_ : releasing_; }
+  // until their first rest, grey levels while releasing a stall or, with
+  // grey_respacing, until their first rest too. The motion across the
+  // surface and at the fronts (StepMotion) is then what decides the rest.
+  bool respacing(const ConvergenceRule& r) const {
+    return r.binary ? !polish_ : releasing_ || (r.grey_respacing && !refining_ && !converged_);
+  }
 
   // A vertex that moves more than this counts as moving (StepMotion::moving).
   double moving_threshold(const ConvergenceRule& r) const;

@@ -525,6 +525,7 @@ ConvergenceRule Engine::rule() const {
   c.convergence_mm = params_.convergence_mm;
   c.binary = params_.target_mode == TargetMode::binary;
   c.partial_volume_steps = params_.partial_volume_steps;
+  c.grey_respacing = params_.grey_respacing != 0;
   return c;
 }
 

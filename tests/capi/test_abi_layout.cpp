@@ -62,12 +62,14 @@ TEST_CASE("abi: reserved fields are zeroed by init_default and must stay 0") {
   // A caller whose layout ends before reserved1 is not refused for it.
   q.struct_size = uint32_t(offsetof(ffseg_params, reserved1));
   CHECK(ffseg_set_params(eb.e, &q) == FFSEG_OK);
-  CHECK(p.reserved2 == 0u);
+  // grey_respacing (0.7.0) sits where reserved2 had to be 0: 0 is its
+  // default, so a 0.3-0.6 caller keeps its meaning; beyond 1 it is refused.
+  CHECK(p.grey_respacing == 0u);
   q = p;
-  q.reserved2 = 1;
+  q.grey_respacing = 2;
   CHECK(ffseg_set_params(eb.e, &q) == FFSEG_ERR_INVALID_ARGUMENT);
-  CHECK(std::string(ffseg_last_error(eb.e)).find("reserved2") != std::string::npos);
-  // A 0.2 caller (ending after reserved1) is not refused for reserved2.
+  CHECK(std::string(ffseg_last_error(eb.e)).find("grey_respacing") != std::string::npos);
+  // A 0.2 caller (ending after reserved1) is not refused for it.
   q.struct_size = uint32_t(offsetof(ffseg_params, region_width_mm));
   CHECK(ffseg_set_params(eb.e, &q) == FFSEG_OK);
 }

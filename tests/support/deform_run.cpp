@@ -2,7 +2,9 @@
 
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <cstdio>
+#include <random>
 #include <vector>
 
 #include "../../capi/capi_internal.h"  // engine_of(): the naive-variant test hook
@@ -20,11 +22,25 @@ DeformRunResult run_deform(const Phantom& ph, const DeformRunOptions& o) {
   ffseg_params p;
   ffseg_params_init_default(&p);
   p.step_size = o.alpha;
+  if (o.grey_noise >= 0) p.target_mode = FFSEG_TARGET_INTENSITY;
   if (o.search_range > 0) p.search_range_mm = o.search_range;
   if (o.convergence > 0) p.convergence_mm = o.convergence;
   if (o.tune) o.tune(p);
   REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
-  ffseg_volume v = make_volume(ph.mask.data(), FFSEG_U8, ph.dims, ph.affine);
+  std::vector<float> grey;
+  if (o.grey_noise >= 0) {
+    // Box-Muller on a fixed-seed engine: the same noise on every platform.
+    std::mt19937_64 rng(1);
+    const double two_pi = 6.283185307179586, scale = 1.0 / 18446744073709551616.0;
+    grey.resize(ph.mask.size());
+    for (size_t q = 0; q < grey.size(); ++q) {
+      const double u1 = (double(rng()) + 1.0) * scale, u2 = double(rng()) * scale;
+      const double z = std::sqrt(-2.0 * std::log(u1)) * std::cos(two_pi * u2);
+      grey[q] = float((ph.mask[q] ? 100.0 : 0.0) + o.grey_noise * z);
+    }
+  }
+  ffseg_volume v = grey.empty() ? make_volume(ph.mask.data(), FFSEG_U8, ph.dims, ph.affine)
+                                : make_volume(grey.data(), FFSEG_F32, ph.dims, ph.affine);
   REQUIRE(ffseg_set_volume(eb.e, &v) == FFSEG_OK);
   REQUIRE(ffseg_init_sphere(eb.e, 0, o.center, o.radius) == FFSEG_OK);
   if (o.naive) ffseg::EngineTesting::set_naive(*ffseg::capi::engine_of(eb.e), true);

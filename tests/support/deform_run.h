@@ -1,4 +1,4 @@
-// One object stepped on a binary phantom through the C API until it converges
+// One object stepped on a phantom through the C API until it converges
 // or a step budget ends: Dice of the rasterised mesh, and the worst
 // self-intersections and normal flips seen after the steps (thesis chapter 4).
 // Used by tests/deform's whole-run tests and tools/experiments/experiment_deform.
@@ -33,6 +33,10 @@ struct DeformRunOptions {
   bool verbose = false;
   double search_range = 0;  // 0: the default
   double convergence = 0;   // 0: the default
+  // >= 0: grey levels instead of the binary mask: the object at 100, the
+  // background at 0, plus Gaussian noise of this sd (a fixed seed), as f32,
+  // with intensity targets (thesis chapter 5).
+  double grey_noise = -1;
   // Experiments only: change the parameters before they are set; called
   // after every step with its number (1-based).
   std::function<void(ffseg_params&)> tune;

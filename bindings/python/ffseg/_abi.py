@@ -75,7 +75,7 @@ class Params(C.Structure):
         ("region_width_mm", C.c_double),
         ("border_weight", C.c_double),
         ("region_interval", C.c_uint32),
-        ("reserved2", C.c_uint32),
+        ("grey_respacing", C.c_uint32),  # since 0.7.0 (reserved2 before)
     ]
 
 

@@ -132,6 +132,12 @@ def test_refusals_raise_ffseg_error_with_status_and_message():
         e.set_params(target_mode="levelset")
     with pytest.raises(ffseg.Error, match="diffusion_iterations"):
         e.set_params(diffusion_iterations=2.5)
+    # grey_respacing (0.7.0) is a switch: 0 by default, 1 taken, 2 refused by name.
+    assert e.params["grey_respacing"] == 0
+    e.set_params(grey_respacing=1)
+    assert e.params["grey_respacing"] == 1
+    with pytest.raises(ffseg.Error, match="grey_respacing"):
+        e.set_params(grey_respacing=2)
     with pytest.raises(ValueError, match="unsupported voxel dtype int8"):
         e.set_volume(vol.astype(np.int8), affine())
     with pytest.raises(ValueError, match="unsupported voxel dtype bool"):

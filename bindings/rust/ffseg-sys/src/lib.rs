@@ -12,7 +12,7 @@ use std::os::raw::c_char;
 pub type ffseg_status = i32;
 
 pub const FFSEG_VERSION_MAJOR: u32 = 0;
-pub const FFSEG_VERSION_MINOR: u32 = 6;
+pub const FFSEG_VERSION_MINOR: u32 = 7;
 pub const FFSEG_VERSION_PATCH: u32 = 0;
 pub const FFSEG_VERSION_NUMBER: u32 =
     FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH;
@@ -113,7 +113,8 @@ pub struct ffseg_params {
     pub region_width_mm: f64,
     pub border_weight: f64,
     pub region_interval: u32,
-    pub reserved2: u32,
+    /// Since 0.7.0 (reserved2 before): grey-level targets re-space their loops until the first rest.
+    pub grey_respacing: u32,
 }
 
 #[repr(C)]

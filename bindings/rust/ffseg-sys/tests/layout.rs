@@ -36,7 +36,7 @@ fn rust_layout() -> BTreeMap<String, (usize, usize)> {
         lambda_uniform, step_size, flip_tau, search_range_mm, search_step_mm, convergence_mm,
         diffusion_iterations, consecutive_background, smoothing_iterations, bin_min_count,
         smoothing_kappa, intensity_gamma, sigma_floor_fraction, bin_radius, bin_separation,
-        partial_volume_steps, reserved1, region_width_mm, border_weight, region_interval, reserved2]);
+        partial_volume_steps, reserved1, region_width_mm, border_weight, region_interval, grey_respacing]);
     strukt!(m, ffseg_volume, [struct_size, voxel_type, data, data_bytes, offset, dims, strides,
         index_to_world, rescale_slope, rescale_intercept]);
     strukt!(m, ffseg_step_info, [struct_size, step_index, active_objects, reserved0,
