@@ -184,6 +184,7 @@ Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object
     ms.bin_separation = p.bin_separation;
     ms.bin_min_count = p.bin_min_count;
     ms.sigma_floor_fraction = p.sigma_floor_fraction;
+    ms.gamma = p.intensity_gamma;
     const ModelStatus ms_st = o.model.fit(o.roi, o.center, o.radius, ms, msg, msg_len, &vol);
     if (ms_st == ModelStatus::no_samples) return Err::sphere_outside;
     if (ms_st == ModelStatus::not_finite) return Err::numeric;

@@ -19,6 +19,12 @@ double weighted_density(const Gaussian1& g, double v) {
   return g.weight / std::sqrt(g.var) * std::exp(-0.5 * d * d / g.var);
 }
 
+// N_m of binning for n samples: the settings' count, else max(8, 5% of n); at most n.
+uint32_t min_count(const IntensityModelSettings& s, uint32_t n) {
+  const uint32_t m = s.bin_min_count > 0 ? s.bin_min_count : std::max<uint32_t>(8, (n + 19) / 20);
+  return m > n ? n : m;
+}
+
 // The component of c[0..m) with the highest weighted density at v (the first
 // of equals); *sum (if given) receives the densities' sum, in index order.
 uint32_t most_probable(const Gaussian1* c, uint32_t m, double v, double* sum = nullptr) {
@@ -198,12 +204,21 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   // The object's classes: the scene components that claim (highest weighted
   // density) the mean of some object component. The others compete.
   bool own[kMaxComponents] = {};
-  for (uint32_t i = 0; i < m_; ++i) own[most_probable(scene, sm, comp_[i].mean)] = true;
+  bool unexplained = false;
+  for (uint32_t i = 0; i < m_; ++i) {
+    const uint32_t c = most_probable(scene, sm, comp_[i].mean);
+    const double z = (comp_[i].mean - scene[c].mean) / std::sqrt(scene[c].var);
+    if (std::exp(-0.5 * z * z) >= s.gamma) own[c] = true;
+    else unexplained = true;
+  }
   obj_weight_ = 0;
   sm_ = 0;
   for (uint32_t c = 0; c < sm; ++c) {
     if (own[c]) obj_weight_ += scene[c].weight;
     else scene_[sm_++] = scene[c];
+  }
+  if (unexplained) {  // at most binning's minimum share of the box (fit_mixture's N_m)
+    obj_weight_ += double(min_count(s, ns)) / double(ns);
   }
   normalise_and_tabulate();  // the table includes the competition
   return st;
@@ -257,8 +272,7 @@ uint32_t IntensityModel::fit_mixture(const CpuDispatch& cpu, const float* x, uin
   BinningSettings b;
   b.radius = s.bin_radius > 0 ? s.bin_radius : 2 * ref;
   b.separation = s.bin_separation > 0 ? s.bin_separation : 4 * ref;
-  b.min_count = s.bin_min_count > 0 ? s.bin_min_count : std::max<uint32_t>(8, (n + 19) / 20);
-  if (b.min_count > n) b.min_count = n;
+  b.min_count = min_count(s, n);
   Bin bins[kMaxComponents];
   *bins_found = adaptive_binning(cpu, x, n, b, bins, kMaxComponents, mixing_stride(n));
   uint32_t m = *bins_found < kMaxComponents ? *bins_found : kMaxComponents;

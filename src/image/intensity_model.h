@@ -50,8 +50,15 @@
 // same mixture (Algorithm 2 + EM, the same floor) to the crop's statistics box
 // (at most kSceneSamples voxels, uniform stride): the scene's tissue classes.
 // The scene components that claim an object component's mean (highest weighted
-// density there) are the object's own classes, of total scene weight a_o; the
-// others compete. A value is then object only if, besides g >= Gamma,
+// density there) and explain it (their own peak-normalised density there is
+// at least Gamma: the mean would be accepted by that class) are the object's
+// own classes, of total scene weight a_o; the others compete. An object
+// class no scene class explains was too rare in the box for binning to give
+// it a bin of its own (a tube 8 mm across in a box 40 mm wide: 3% of it;
+// the one background class then claimed it, became "own" and nothing
+// competed, so the partial-volume level of intensity_search.h had no rival
+// and the grey boundary stayed half a voxel inside). Its scene weight is
+// then at most binning's minimum share N_m / n, and a_o is taken as that. A value is then object only if, besides g >= Gamma,
 //   a_o f_obj(v) >= sum_competitors a_c f_c(v),
 // the Bayes decision between the object (its class-conditional density taken
 // from the sphere) and the scene's other classes; g(v) reads 0 where it fails.
@@ -116,6 +123,8 @@ struct IntensityModelSettings {
   double sigma_floor_fraction = 0.04; // rho, fraction of the statistics box's p1..p99 range (Params' default)
   bool scene_competitors = true;      // fit(): the crop's other classes compete (see the header note)
   double trim_sds = 2.5;              // fit(): sphere samples kept within this many robust sd of their median; 0: all
+  double gamma = 0.2;                 // fit(): Gamma of the search; a scene class explains an object class's mean
+                                      // when its peak-normalised density there is at least this (see the header note)
 };
 
 // not_finite: the region's noise estimate or intensity range overflowed (grey
