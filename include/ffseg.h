@@ -250,7 +250,9 @@ typedef struct ffseg_params {
                                     open between the organ and a neighbour of its grey level (abdominal
                                     CT: the aorta and gallbladder leak; Colin27's nuclei into their
                                     neighbours). Without it a grey-level mesh re-spaces only to leave a
-                                    stall. 0..1; default 0 */
+                                    stall. Along a long tube also set diffusion_iterations to 2: the
+                                    automatic rounds average the few vertices at its tip with their
+                                    resting neighbours and it stops short. 0..1; default 0 */
 } ffseg_params;
 
 /* Fills *p with the defaults above and struct_size = sizeof(ffseg_params). */
