@@ -200,6 +200,25 @@ class BoxGrid : public CellTable {
         if (key_[k] == pc) f(ids_[k] & kIdMask, c);
     });
   }
+  // Whether pred(id) holds for some entry of the cells the box [lo, hi]
+  // overlaps; stops at the first.
+  template <class P>
+  bool any_entry(const double* lo, const double* hi, P&& pred) const {
+    int64_t a[3], b[3];
+    for (int k = 0; k < 3; ++k) {
+      a[k] = cell(lo[k]);
+      b[k] = cell(hi[k]);
+    }
+    for (int64_t z = a[2]; z <= b[2]; ++z)
+      for (int64_t y = a[1]; y <= b[1]; ++y)
+        for (int64_t x = a[0]; x <= b[0]; ++x) {
+          const uint32_t hb = hash(x, y, z);
+          const uint32_t pc = pack(x, y, z);
+          for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
+            if (key_[k] == pc && pred(ids_[k] & kIdMask)) return true;
+        }
+    return false;
+  }
   // For a box [lo, hi] that fits: calls f(id) for the entries met in the
   // cell holding the low corner of the intersection of the two boxes, the one
   // cell where the pair counts; that cell is, per axis, the low cell of one
