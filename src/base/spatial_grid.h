@@ -100,10 +100,26 @@ class SpatialGrid : public CellTable {
   void for_each_in_ball(const double c[3], double r, F&& f) const {
     const double r2 = r * r;
     const double lo[3] = {c[0] - r, c[1] - r, c[2] - r}, hi[3] = {c[0] + r, c[1] + r, c[2] + r};
-    for_each_in_cells(lo, hi, [&](uint32_t id) {
-      const double* p = pts_ + 3 * size_t(id);
-      const double dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2];
-      if (dx * dx + dy * dy + dz * dz <= r2) f(id);
+    // A cell's points are tested in a row, from their copies in bucket
+    // order and without a branch (inside or not is a coin toss: a third of
+    // the candidates of a ball lie in it), and the ones inside are listed
+    // for f, in the same order.
+    constexpr uint32_t kChunk = 64;
+    uint32_t in[kChunk];
+    for_each_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+      const uint32_t h = hash(x, y, z);
+      const uint64_t pc = pack(x, y, z);
+      for (uint32_t k0 = start_[h], end = start_[h + 1]; k0 < end; k0 += kChunk) {
+        const uint32_t k1 = end - k0 < kChunk ? end : k0 + kChunk;
+        uint32_t n = 0;
+        for (uint32_t k = k0; k < k1; ++k) {
+          const double* p = sorted_ + 3 * size_t(k);
+          const double dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2];
+          in[n] = ids_[k];
+          n += uint32_t((cellkey_[k] == pc) & (dx * dx + dy * dy + dz * dz <= r2));
+        }
+        for (uint32_t i = 0; i < n; ++i) f(in[i]);
+      }
     });
   }
 
@@ -127,6 +143,7 @@ class SpatialGrid : public CellTable {
 
   uint64_t* cellkey_ = nullptr;  // max points: packed cell of ids_[k]
   uint32_t* key_ = nullptr;      // max points: bucket of point i (build only)
+  double* sorted_ = nullptr;     // 3 per max point: the coordinates of ids_[k]
   const double* pts_ = nullptr;
 };
 
@@ -151,6 +168,7 @@ void SpatialGrid::build_if(const double* pts, uint32_t count, double h, Keep&& k
     const uint32_t k = start_[key_[i]]++;
     ids_[k] = i;
     cellkey_[k] = pack(cell(p[0]), cell(p[1]), cell(p[2]));
+    for (int a = 0; a < 3; ++a) sorted_[3 * size_t(k) + a] = p[a];
   }
   restore();
 }
@@ -199,6 +217,25 @@ class BoxGrid : public CellTable {
       for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
         if (key_[k] == pc) f(ids_[k] & kIdMask, c);
     });
+  }
+  // Whether pred(id) holds for some entry of the cells the box [lo, hi]
+  // overlaps; stops at the first.
+  template <class P>
+  bool any_entry(const double* lo, const double* hi, P&& pred) const {
+    int64_t a[3], b[3];
+    for (int k = 0; k < 3; ++k) {
+      a[k] = cell(lo[k]);
+      b[k] = cell(hi[k]);
+    }
+    for (int64_t z = a[2]; z <= b[2]; ++z)
+      for (int64_t y = a[1]; y <= b[1]; ++y)
+        for (int64_t x = a[0]; x <= b[0]; ++x) {
+          const uint32_t hb = hash(x, y, z);
+          const uint32_t pc = pack(x, y, z);
+          for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
+            if (key_[k] == pc && pred(ids_[k] & kIdMask)) return true;
+        }
+    return false;
   }
   // For a box [lo, hi] that fits: calls f(id) for the entries met in the
   // cell holding the low corner of the intersection of the two boxes, the one

@@ -8,6 +8,7 @@ void IntersectionScratch::carve(Arena& a, uint32_t nv) {
   grid.carve(a, 2 * nv);
   pts = a.alloc<double>(size_t(6) * nv);
   mark = a.alloc<uint8_t>(nv);
+  len = a.alloc<double>(nv);
 }
 
 namespace {
@@ -49,6 +50,8 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
         dsum += std::sqrt(len2);
         ++dn;
       }
+      const double* dv = d + 3 * size_t(v);
+      s.len[v] = std::sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
     }
     if (!(dsum > 0)) break;
     const double h = std::fmax(edge, dsum / dn);
@@ -57,14 +60,14 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
     for (uint32_t i = 0; i < nv; ++i) {
       if (!has[i] || !(s.mark[i] & kActive)) continue;
       const double* di = d + 3 * size_t(i);
-      const double li = std::sqrt(di[0] * di[0] + di[1] * di[1] + di[2] * di[2]);
+      const double li = s.len[i];
       if (!(li > 0)) continue;
       const uint32_t* nb = m.nbr + 4 * size_t(i);
       s.grid.for_each_in_ball(x + 3 * size_t(i), alpha * li, [&](uint32_t id) {
         const uint32_t j = id < nv ? id : id - nv;
         if (j == i || !has[j] || j == nb[0] || j == nb[1] || j == nb[2] || j == nb[3]) return;
         const double* dj = d + 3 * size_t(j);
-        const double lj = std::sqrt(dj[0] * dj[0] + dj[1] * dj[1] + dj[2] * dj[2]);
+        const double lj = s.len[j];
         if (!(lj > 0)) return;
         const double c = (di[0] * dj[0] + di[1] * dj[1] + di[2] * dj[2]) / (li * lj);
         if (c > tau) return;

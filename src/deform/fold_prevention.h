@@ -15,6 +15,7 @@ struct IntersectionScratch {
   SpatialGrid grid;      // over 2 * nv points
   double* pts = nullptr; // 6 * nv: vertices, then targets
   uint8_t* mark = nullptr;
+  double* len = nullptr;  // nv: |d_v| this pass (each ball's partners read it)
   void carve(Arena& a, uint32_t nv);
 };
 

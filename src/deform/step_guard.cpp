@@ -427,6 +427,13 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
 
 }  // namespace
 
+void GuardCache::carve(Arena& a, const CubeSphere& m) {
+  n = a.alloc<double>(size_t(6) * m.nfaces);
+  alt = a.alloc<uint8_t>(m.nfaces);
+  key = a.alloc<double>(size_t(3) * m.nv);
+  valid = false;
+}
+
 void guard_region(const CubeSphere& m, const double* x_old, const double* x_new, double region[6]) {
   // Every tested position is x_old + f (x_new - x_old) with 0 <= f <= 1 per
   // vertex: between the two per axis (build_obstacles() widens the box
@@ -447,22 +454,31 @@ void guard_region(const CubeSphere& m, const double* x_old, const double* x_new,
 }
 
 double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
-                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts, ContactScratch* obstacles) {
+                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts, ContactScratch* obstacles, GuardCache* keep) {
   // First a line search along the whole solved update: the largest s in
   // {1, 1/2, 1/4} that turns no triangle by 90 degrees and folds no edge.
   // Scaling the whole update keeps it smooth.
   const size_t nv = m.nv;
   // Splits and normals at x_old, fixed for the whole step: the last step's
   // cache at its accepted positions when these are x_old bit for bit (the
-  // same function of the same bits), else computed.
-  if (ts.new_key_valid && std::memcmp(ts.new_key, x_old, 3 * nv * sizeof(double)) == 0) {
+  // same function of the same bits), else computed. An object's own cache
+  // is copied, not swapped in: it lies outside the engine, whose layout
+  // check allows its own buffers to trade places only among themselves.
+  if (keep && keep->valid && std::memcmp(keep->key, x_old, 3 * nv * sizeof(double)) == 0) {
+    std::memcpy(ts.face_n_old, keep->n, 6 * size_t(m.nfaces) * sizeof(double));
+    std::memcpy(ts.face_alt_old, keep->alt, m.nfaces);
+    ts.count_reused_cache();
+  } else if (!keep && ts.new_key_valid && std::memcmp(ts.new_key, x_old, 3 * nv * sizeof(double)) == 0) {
     std::swap(ts.face_n_old, ts.face_n_new);
     std::swap(ts.face_alt_old, ts.face_alt_new);
     ts.count_reused_cache();
   } else {
     for (uint32_t f = 0; f < m.nfaces; ++f) cache_face(m, f, x_old, ts.face_n_old, ts.face_alt_old);
   }
+  if (keep) keep->valid = false;
   ts.new_key_valid = false;
+  // Every position set tested below lies between x_old and x_new.
+  if (obstacles) sweep_obstacles(m, x_old, x_new, *obstacles);
   for (size_t v = 0; v < nv; ++v) share[v] = 1.0;
   double s = 1.0;
   blend(nv, x_old, x_new, s, share, xs, nullptr);
@@ -556,8 +572,15 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
     }
   }
   if (tested && !ts.face_new_partial) {
-    std::memcpy(ts.new_key, xs, 3 * nv * sizeof(double));
-    ts.new_key_valid = true;
+    if (keep) {
+      std::memcpy(keep->n, ts.face_n_new, 6 * size_t(m.nfaces) * sizeof(double));
+      std::memcpy(keep->alt, ts.face_alt_new, m.nfaces);
+      std::memcpy(keep->key, xs, 3 * nv * sizeof(double));
+      keep->valid = true;
+    } else {
+      std::memcpy(ts.new_key, xs, 3 * nv * sizeof(double));
+      ts.new_key_valid = true;
+    }
   }
   return nv ? kept / double(nv) : 1.0;
 }

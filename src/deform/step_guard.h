@@ -8,11 +8,25 @@
 #pragma once
 #include <cstdint>
 
+#include "arena.h"
 #include "cubesphere.h"
 #include "mesh_contact.h"
 #include "mesh_intersection.h"
 
 namespace ffseg {
+
+// One object's fold-test splits and normals (the guard's cache, see
+// TriangleScratch::face_n_new) at the positions its last guarded step
+// accepted (key), while valid. Objects that share one TriangleScratch take
+// turns in it, so each keeps its own here: its next step starts from these
+// positions and finds their splits and normals ready.
+struct GuardCache {
+  double* n = nullptr;     // 6 per face
+  uint8_t* alt = nullptr;  // per face
+  double* key = nullptr;   // 3 per vertex
+  bool valid = false;
+  void carve(Arena& a, const CubeSphere& m);
+};
 
 // x_old: current positions (3 per vertex); x_new: proposed positions as three
 // columns of nv (x_new[c * nv + v]), scaled back in place towards x_old;
@@ -27,8 +41,11 @@ namespace ffseg {
 // offenders of a fold or crossing are. x_old must be free of contacts (the
 // guard falls back to it). Without obstacles the result is bit for bit that
 // of the guard alone.
+// keep (optional): the object's own cache, read when x_old is its key and
+// left for the next step (instead of ts's); the result is the same.
 double guard_step(const CubeSphere& m, const double* x_old, double* x_new, double* xs, double* share,
-                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts, ContactScratch* obstacles = nullptr);
+                  uint8_t* mark, uint8_t* grow, TriangleScratch& ts, ContactScratch* obstacles = nullptr,
+                  GuardCache* keep = nullptr);
 
 // The box (lo[3], hi[3]) holding every position set guard_step() can test
 // for x_old and x_new (laid out as guard_step() takes them): the region to

@@ -73,7 +73,7 @@ void Engine::layout(Arena& a) {
       o->roi.carve(a, cfg_.max_roi_voxels, cpu_);
       o->model.carve(a, IntensityModel::kDefaultSamples, cpu_);
     }
-    o->step.carve(a, mesh_.nv, regions);
+    o->step.carve(a, mesh_, regions);
     if (regions) {
       RegionMap probe_map;
       o->region = region_maps_ ? new (&region_maps_[i]) RegionMap() : &probe_map;

@@ -17,6 +17,7 @@
 #include "mesh_contact.h"
 #include "mesh_intersection.h"
 #include "smoothing.h"
+#include "step_guard.h"
 
 namespace ffseg {
 
@@ -36,8 +37,11 @@ struct ObjectStep {
   double guard_kept = 1;            // the mean share of the solved update the guard kept
   uint32_t guard_held = 0;          // vertices the guard held to less than half their update
   StepMotion motion;                // how the step moved the mesh
-  // regions: several objects, the border flags too.
-  void carve(Arena& a, uint32_t nv, bool regions);
+  // Several objects: the guard's cache of this object's accepted positions
+  // (one object keeps its cache in the shared TriangleScratch).
+  GuardCache guard;
+  // regions: several objects, the border flags and the guard's cache too.
+  void carve(Arena& a, const CubeSphere& m, bool regions);
 };
 
 struct Object {

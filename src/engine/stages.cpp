@@ -89,11 +89,13 @@ uint64_t now_us() {
                       .count());
 }
 
-void ObjectStep::carve(Arena& a, uint32_t nv, bool regions) {
+void ObjectStep::carve(Arena& a, const CubeSphere& m, bool regions) {
+  const uint32_t nv = m.nv;
   target = a.alloc<double>(size_t(3) * nv);
   disp = a.alloc<double>(size_t(3) * nv);
   has = a.alloc<uint8_t>(nv);
   border = regions ? a.alloc<uint8_t>(nv) : nullptr;
+  if (regions) guard.carve(a, m);
 }
 
 void StepScratch::carve_regions(Arena& a, const CubeSphere& m, int64_t max_voxels, uint32_t max_objects) {
@@ -361,7 +363,8 @@ Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, do
     build_obstacles(m, others, other_count, s.contacts, region);
     obstacles = &s.contacts;
   }
-  st.guard_kept = guard_step(m, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles, obstacles);
+  st.guard_kept = guard_step(m, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles, obstacles,
+                             st.guard.n ? &st.guard : nullptr);
   st.guard_held = 0;
   for (uint32_t v = 0; v < nv; ++v) st.guard_held += s.weight[v] < 0.5;  // the guard's shares
   lap(kStageGuard);

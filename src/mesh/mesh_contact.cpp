@@ -191,6 +191,7 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   box = a.alloc<double>(size_t(6) * max_obst);
   state = a.alloc<uint8_t>(max_obst);
   fdone = a.alloc<uint8_t>(size_t(m.nfaces) * max_obst);
+  tri_set = a.alloc<uint8_t>(total);
   tris = a.alloc<uint32_t>(3 * total);
   lo = a.alloc<double>(3 * total);
   hi = a.alloc<double>(3 * total);
@@ -211,12 +212,15 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   pairs = a.alloc<uint32_t>(2 * size_t(pair_cap));
   npairs = 0;
   tracked = false;
+  reach = a.alloc<uint8_t>(m.nfaces);
+  swept = false;
 }
 
 void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s,
                      const double* region) {
   s.count = count < s.max_obstacles ? count : s.max_obstacles;
   s.tracked = false;
+  s.swept = false;
   const uint32_t nt = s.nt;
   // The region, widened against the rounding of positions blended inside it.
   double rlo[3], rhi[3];
@@ -291,11 +295,12 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     if (!over) break;
     h *= 2;
   }
+  // The grids' builds ask about every triangle id twice: a flag per id
+  // answers which ones were set up.
   const uint32_t total = nt * s.count;
-  auto entered_tri = [&](uint32_t t) {
-    const uint32_t k = t / nt;
-    return (s.state[k] & ContactScratch::kActive) && s.fdone[size_t(k) * m.nfaces + face_of(m, t - k * nt)];
-  };
+  for (uint32_t t = 0; t < total; ++t) s.tri_set[t] = 0;
+  for_each_done(m, s, [&](uint32_t t) { s.tri_set[t] = 1; });
+  auto entered_tri = [&](uint32_t t) { return s.tri_set[t] != 0; };
   s.grid.size_table(uint32_t(entered));
   s.grid.build(s.lo, s.hi, total,
                [&](uint32_t t) { return entered_tri(t) && s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t)); });
@@ -313,6 +318,71 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
   });
 }
 
+
+namespace {
+
+// Whether the box [lo, hi] meets the box of an obstacle triangle entered by
+// build_obstacles() (the grid's or a big one; the triangles complete() adds
+// for the ray test lie outside the region, where no query reaches). A box
+// over too many cells answers yes unasked.
+bool box_meets_obstacles(const ContactScratch& s, const double* lo, const double* hi) {
+  bool near = false;
+  for (uint32_t k = 0; k < s.count && !near; ++k) {
+    const double* b = s.box + 6 * size_t(k);
+    near = (s.state[k] & ContactScratch::kActive) && detail::boxes_overlap(lo, hi, b, b + 3);
+  }
+  if (!near) return false;
+  auto meets = [&](uint32_t u) {
+    return detail::boxes_overlap(lo, hi, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u));
+  };
+  if (s.grid.cells(lo, hi) > kMaxQueryCells) return true;
+  if (s.grid.any_entry(lo, hi, meets)) return true;
+  if (s.nbig == 0) return false;
+  if (s.big_fit && s.big_grid.cells(lo, hi) <= kMaxQueryCells) return s.big_grid.any_entry(lo, hi, meets);
+  for (uint32_t j = 0; j < s.nbig; ++j)
+    if (meets(s.big[j])) return true;
+  return false;
+}
+
+}  // namespace
+
+void sweep_obstacles(const CubeSphere& m, const double* a, const double* b, ContactScratch& s) {
+  s.swept = false;
+  if (s.count == 0) return;
+  const size_t nv = m.nv;
+  // A blended position strays from its segment by a few units in the last
+  // place of the largest coordinate; build_obstacles() widens its region by
+  // 1e-6 of that for the same reason. The query's boxes are widened by eps.
+  double r = 0;
+  bool finite = true;
+  for (size_t q = 0; q < 3 * nv; ++q) {
+    const double p = std::fabs(a[q]), e = std::fabs(b[q]);
+    finite = finite & (p - p == 0) & (e - e == 0);  // neither infinite nor NaN
+    r = p > r ? p : r;
+    r = e > r ? e : r;
+  }
+  if (!finite) return;  // no filter: every face is tested
+  const double w = 1e-6 * r + s.eps;
+  for (uint32_t f = 0; f < m.nfaces; ++f) {
+    const uint32_t* q = m.faces + 4 * size_t(f);
+    const int k = q[3] == kNone ? 3 : 4;
+    double lo[3], hi[3];
+    for (int c = 0; c < 3; ++c) {
+      double l = a[3 * size_t(q[0]) + c], h = l;
+      for (int i = 0; i < k; ++i) {
+        const double p = a[3 * size_t(q[i]) + c], e = b[c * nv + q[i]];
+        l = p < l ? p : l;
+        h = p > h ? p : h;
+        l = e < l ? e : l;
+        h = e > h ? e : h;
+      }
+      lo[c] = l - w;
+      hi[c] = h + w;
+    }
+    s.reach[f] = box_meets_obstacles(s, lo, hi);
+  }
+  s.swept = true;
+}
 
 namespace {
 
@@ -460,7 +530,7 @@ uint32_t contacts_full(const CubeSphere& m, const double* x, ContactScratch& s, 
   uint32_t count = 0;
   bool room = true;
   for (uint32_t f = 0; f < m.nfaces; ++f) {
-    if (!face_meets(m, f, s.qcode)) continue;
+    if ((s.swept && !s.reach[f]) || !face_meets(m, f, s.qcode)) continue;
     prepare_face(m, x, s, f, alt);
     const uint32_t t0 = m.first_triangle(f);
     const int c = m.faces[4 * size_t(f) + 3] != kNone ? 2 : 1;
@@ -528,7 +598,7 @@ uint32_t mark_contacts_tracked(const CubeSphere& m, const double* x, ContactScra
   zone_codes(m, x, s, zlo, zhi);
   bool room = true;
   for (uint32_t f = 0; f < m.nfaces && room; ++f) {
-    if (!face_moved(m, f, moved) || !face_meets(m, f, s.qcode)) continue;
+    if ((s.swept && !s.reach[f]) || !face_moved(m, f, moved) || !face_meets(m, f, s.qcode)) continue;
     prepare_face(m, x, s, f, alt);
     const uint32_t t0 = m.first_triangle(f);
     const int c = m.faces[4 * size_t(f) + 3] != kNone ? 2 : 1;

@@ -30,6 +30,7 @@ struct ContactScratch {
   static constexpr uint8_t kActive = 1, kComplete = 2;
   uint8_t* state = nullptr;
   uint8_t* fdone = nullptr;           // per obstacle and face: split and boxed
+  uint8_t* tri_set = nullptr;         // per obstacle triangle: its face set up (build_obstacles() scratch)
   // Obstacle triangles, id k * nt + t: vertex indices (3 each, within
   // obstacle k, face_triangles() split at its positions) and boxes, valid
   // where fdone is set for the triangle's face.
@@ -60,6 +61,11 @@ struct ContactScratch {
   uint32_t* pairs = nullptr;
   uint32_t npairs = 0, pair_cap = 0;
   bool tracked = false;
+  // sweep_obstacles(): per face of the query mesh, 1 when some position set
+  // of the sweep may bring one of its triangles' boxes onto an obstacle
+  // triangle's (only these are tested while swept).
+  uint8_t* reach = nullptr;
+  bool swept = false;
   void carve(Arena& a, const CubeSphere& m, uint32_t max_obstacles);
 };
 
@@ -73,6 +79,17 @@ struct ContactScratch {
 // vertices, and only their faces meeting it enter the grid.
 void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s,
                      const double* region = nullptr);
+
+// Declares that until the next build_obstacles() every position set queried
+// has each vertex v on the segment from a to b (up to the rounding of a
+// blend between them): a holds 3 values per vertex, b three columns of nv
+// (b[c * nv + v], the step guard's layout). The queries then skip the faces
+// whose boxes over the whole sweep miss every obstacle triangle's: a crossing
+// point lies in both triangles' boxes, so these faces can cross nothing, and
+// counts, marks and pairs stay those of the queries without it. The guard
+// tests one update at many scales, and most of the faces it moves are far
+// from every neighbour.
+void sweep_obstacles(const CubeSphere& m, const double* a, const double* b, ContactScratch& s);
 
 // Contacts of the mesh at positions x (3 per vertex) with the obstacles:
 // every crossing pair (a triangle of x, a triangle of an obstacle) counts

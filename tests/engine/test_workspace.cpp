@@ -57,10 +57,19 @@ TEST_CASE("workspace: pinned sizes of a few configurations (default max_roi_voxe
   // Then 16 B more per object, in its step record (the motion across the
   // surface and the fronts' advance of the binary rest rule): +128 B for 8
   // objects, the single objects' records within their lines.
-  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 230715264u);
-  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 19925632u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38520640u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20588352u);
+  // Then the guard's speed for several objects (issue 30): each object keeps
+  // its guard's fold-test cache (48 B a face for the normals, 1 B a face for
+  // the splits, 24 B a vertex for the key: 63 120 B at n = 12, x8), and the
+  // contact test flags per face (1 B) and per obstacle triangle (1 B):
+  // +519 168 B for 8 objects at n = 12; the one-object engines only grow by
+  // their records' new fields (+128 B).
+  // Then the fold prevention's grid copies its points in bucket order (48 B
+  // a vertex: two points each) and the displacements' lengths (8 B a
+  // vertex): +48 384 B at n = 12, +365 952 B at n = 33, shared by the objects.
+  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 231282816u);
+  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 19974144u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38886720u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20954432u);
 }
 
 TEST_CASE("workspace: grey-level buffers are per object and only in intensity configurations") {
