@@ -53,9 +53,10 @@ class CellTable {
     const uint64_t h = uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;
     return uint32_t(h & mask_);
   }
-  // Calls f(x, y, z) for every cell the box [lo, hi] overlaps.
-  template <class F>
-  void for_each_cell_of(const double* lo, const double* hi, F&& f) const {
+  // Whether pred(x, y, z) holds for some cell the box [lo, hi] overlaps;
+  // stops at the first.
+  template <class P>
+  bool any_cell_of(const double* lo, const double* hi, P&& pred) const {
     int64_t a[3], b[3];
     for (int k = 0; k < 3; ++k) {
       a[k] = cell(lo[k]);
@@ -63,7 +64,17 @@ class CellTable {
     }
     for (int64_t z = a[2]; z <= b[2]; ++z)
       for (int64_t y = a[1]; y <= b[1]; ++y)
-        for (int64_t x = a[0]; x <= b[0]; ++x) f(x, y, z);
+        for (int64_t x = a[0]; x <= b[0]; ++x)
+          if (pred(x, y, z)) return true;
+    return false;
+  }
+  // Calls f(x, y, z) for every cell the box [lo, hi] overlaps.
+  template <class F>
+  void for_each_cell_of(const double* lo, const double* hi, F&& f) const {
+    any_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+      f(x, y, z);
+      return false;
+    });
   }
   // Counting sort: clear, ++start_[bucket + 1] per entry, then starts(),
   // then ids_[start_[bucket]++] = id per entry, then restore().
@@ -222,20 +233,13 @@ class BoxGrid : public CellTable {
   // overlaps; stops at the first.
   template <class P>
   bool any_entry(const double* lo, const double* hi, P&& pred) const {
-    int64_t a[3], b[3];
-    for (int k = 0; k < 3; ++k) {
-      a[k] = cell(lo[k]);
-      b[k] = cell(hi[k]);
-    }
-    for (int64_t z = a[2]; z <= b[2]; ++z)
-      for (int64_t y = a[1]; y <= b[1]; ++y)
-        for (int64_t x = a[0]; x <= b[0]; ++x) {
-          const uint32_t hb = hash(x, y, z);
-          const uint32_t pc = pack(x, y, z);
-          for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
-            if (key_[k] == pc && pred(ids_[k] & kIdMask)) return true;
-        }
-    return false;
+    return any_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+      const uint32_t hb = hash(x, y, z);
+      const uint32_t pc = pack(x, y, z);
+      for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
+        if (key_[k] == pc && pred(ids_[k] & kIdMask)) return true;
+      return false;
+    });
   }
   // For a box [lo, hi] that fits: calls f(id) for the entries met in the
   // cell holding the low corner of the intersection of the two boxes, the one
