@@ -505,6 +505,24 @@ TEST_CASE("cli: usage errors exit 2, bad input exits 3, and leave nothing behind
   for (const std::string& n : s.entries()) CHECK_MESSAGE(n.find("ffseg-") == std::string::npos, n);
 }
 
+TEST_CASE("cli: overlapping spheres are refused naming the other object as the tool counts it") {
+  Scratch s;
+  const Balls b = make_balls({kBall}, {1});
+  write(s / "ball.nii.gz", b.image);
+  const std::string out = s / "out";
+  // The engine counts objects from 0; the tool's objects are 1, 2, ... and
+  // have names: the message must not send the user to an "object 0".
+  const Run r = ffseg(s, "segment " + (s / "ball.nii.gz") +
+                             " --target binary --sphere 4,27,12,4 --sphere 5,27,12,4 --names core,shell --mesh-resolution 5"
+                             " --max-steps 2 --quiet --out " + out);
+  INFO("stderr: " << r.err);
+  CHECK(r.code == 2);
+  CHECK(r.err.find("object 2 (--sphere 5,27,12,4)") != std::string::npos);
+  CHECK(r.err.find("overlaps object 1 (core)") != std::string::npos);
+  CHECK(r.err.find("object 0") == std::string::npos);
+  CHECK_FALSE(fs::exists(out));
+}
+
 TEST_CASE("cli: the default target, intensity, either works or says how to proceed") {
   Scratch s;
   const Balls b = make_balls({kBall}, {1});

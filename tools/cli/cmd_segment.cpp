@@ -255,6 +255,23 @@ struct OutgrewBudget {
   std::string detail;
 };
 
+// The engine's message about object k's placement in the tool's terms: the
+// engine counts objects from 0 ("overlaps object 0"), the tool from 1 and
+// by name, so the other object is named as the tool's messages name it.
+std::string placement_message(const SegmentRequest& rq, const char* engine_msg) {
+  std::string m = engine_msg ? engine_msg : "";
+  const std::string key = "overlaps object ";
+  const size_t at = m.find(key);
+  if (at == std::string::npos) return m;
+  const size_t from = at + key.size();
+  size_t to = from;
+  while (to < m.size() && m[to] >= '0' && m[to] <= '9') ++to;
+  if (to == from || to - from > 9) return m;
+  const unsigned long other = std::stoul(m.substr(from, to - from));
+  if (other >= rq.objects()) return m;
+  return m.substr(0, from) + std::to_string(other + 1) + " (" + rq.names[other] + ")" + m.substr(to);
+}
+
 // A new engine for the request at run->resolution, the volume set (the
 // image's buffer, borrowed) and every sphere placed.
 void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, EngineRun* run) {
@@ -315,7 +332,7 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
                            run->coarse[k].size() / 3);
     if (st != FFSEG_OK && run->start_from_coarse && !rq.quiet)
       std::fprintf(stderr, "ffseg: object %u (%s): the engine refused its first-run mesh (%s); it starts from "
-                   "its sphere\n", k + 1, rq.names[k].c_str(), ffseg_last_error(ws.e));
+                   "its sphere\n", k + 1, rq.names[k].c_str(), placement_message(rq, ffseg_last_error(ws.e)).c_str());
     if (st != FFSEG_OK) st = ffseg_init_sphere(ws.e, k, run->centres_mm[k].data(), s.c[3]);
     // Meshes of two runs may touch where one run's never do, and a
     // neighbour's finer mesh may even hold the sphere: then every object
@@ -323,13 +340,14 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
     if (mixed && st != FFSEG_OK) {
       if (!rq.quiet)
         std::fprintf(stderr, "ffseg: object %u (%s): no start beside the finer meshes (%s); every object starts "
-                     "from its first-run mesh\n", k + 1, rq.names[k].c_str(), ffseg_last_error(ws.e));
+                     "from its first-run mesh\n", k + 1, rq.names[k].c_str(),
+                     placement_message(rq, ffseg_last_error(ws.e)).c_str());
       run->fine.clear();
       start_engine(rq, img, run);
       return;
     }
     if (st == FFSEG_ERR_SPHERE_OUTSIDE || st == FFSEG_ERR_INVALID_ARGUMENT) {
-      const std::string detail = ffseg_last_error(ws.e);
+      const std::string detail = placement_message(rq, ffseg_last_error(ws.e));
       fail(kExitUsage, "object " + std::to_string(k + 1) + " (" + s.text + "): " +
                            (st == FFSEG_ERR_SPHERE_OUTSIDE ? "the sphere does not meet the volume grid (" + world_extent(img) + ")"
                                                            : (detail.empty() ? ffseg_status_string(st) : detail)));
