@@ -214,6 +214,11 @@ void read_inputs(SegmentRequest* rq, Inputs* in) {
 
 // The engine's run: its workspace (the results are read from it), how it
 // went and how long it took.
+// Where an object's mesh started in the last engine (report.json:
+// objects[].started_from).
+constexpr uint8_t kStartSphere = 0, kStartFirstRun = 1, kStartFinerRun = 2;
+const char* start_name(uint8_t k) { return k == kStartFinerRun ? "finer run" : k == kStartFirstRun ? "first run" : "sphere"; }
+
 struct EngineRun {
   Workspace ws;
   ffseg_config cfg{};
@@ -238,6 +243,10 @@ struct EngineRun {
   // run came to rest well for them, and the next engine starts them there.
   std::vector<std::vector<float>> fine;
   bool started_from_fine(uint32_t k) const { return start_from_coarse && k < fine.size() && !fine[k].empty(); }
+  // Each object of the finer run that stalled or ended smaller than at the
+  // first resolution, and where the last engine placed each object:
+  // kStartSphere, kStartFirstRun (its first-run mesh) or kStartFinerRun.
+  std::vector<uint8_t> fell_short, start;
   std::vector<std::array<double, 3>> far;  // outward, inward, vertices: at each object's last moving step
   // Seconds: every pass's engine setup; the last pass's steps (as stage_us).
   double t_setup = 0, t_stepping = 0;
@@ -316,20 +325,33 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
   if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_set_volume");
 
   run->centres_mm.assign(rq.objects(), {});
+  run->start.assign(rq.objects(), kStartSphere);
   bool mixed = false;  // finer meshes beside first-run ones
   for (uint32_t k = 0; k < rq.objects(); ++k) mixed = mixed || run->started_from_fine(k);
-  for (uint32_t k = 0; k < rq.objects(); ++k) {
+  // The finer meshes first: they come from one engine and never overlap one
+  // another, so each keeps its place; a first-run mesh that overlaps one of
+  // them is refused instead (placed in index order, a stalled kidney's
+  // first-run mesh took the vena cava's finer place and sent it back to its
+  // sphere).
+  std::vector<uint32_t> order;
+  for (int finer = 1; finer >= 0; --finer)
+    for (uint32_t k = 0; k < rq.objects(); ++k)
+      if (run->started_from_fine(k) == bool(finer)) order.push_back(k);
+  for (const uint32_t k : order) {
     const SphereArg& s = rq.spheres[k];
     run->centres_mm[k] =
         s.voxel ? voxel_to_world(img.index_to_world, s.c) : std::array<double, 3>{s.c[0], s.c[1], s.c[2]};
     // Coarse to fine: the first run's mesh, resampled (its model still from
     // the sphere); a mesh the engine refuses starts from the sphere.
     st = FFSEG_ERR_INVALID_ARGUMENT;
-    if (run->started_from_fine(k))
-      st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->fine[k].data(), run->fine[k].size() / 3);
-    if (st != FFSEG_OK && run->start_from_coarse)
-      st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->coarse[k].data(),
-                           run->coarse[k].size() / 3);
+    if (run->started_from_fine(k) &&
+        (st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->fine[k].data(),
+                              run->fine[k].size() / 3)) == FFSEG_OK)
+      run->start[k] = kStartFinerRun;
+    if (st != FFSEG_OK && run->start_from_coarse &&
+        (st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->coarse[k].data(),
+                              run->coarse[k].size() / 3)) == FFSEG_OK)
+      run->start[k] = kStartFirstRun;
     if (st != FFSEG_OK && run->start_from_coarse && !rq.quiet)
       std::fprintf(stderr, "ffseg: object %u (%s): the engine refused its first-run mesh (%s); it starts from "
                    "its sphere\n", k + 1, rq.names[k].c_str(), placement_message(rq, ffseg_last_error(ws.e)).c_str());
@@ -514,21 +536,23 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   pass(rq.max_steps);
   run->stalled = stalled_objects(*run, nobj);
   const std::vector<uint64_t> fine_voxels = object_voxels(run->ws.e, img, nobj);
-  int short_of = -1;
+  std::string short_ones;  // "object 4 (gallbladder) stalled, object 7 (aorta) stopped short ..."
   run->fine.assign(nobj, {});
+  run->fell_short.assign(nobj, 0);
   for (uint32_t k = 0; k < nobj; ++k) {
     if (run->stalled[k] || double(fine_voxels[k]) < (1 - kShortOfFirstRun) * double(coarse_voxels[k])) {
-      if (short_of < 0) short_of = int(k);
+      run->fell_short[k] = 1;
+      short_ones += std::string(short_ones.empty() ? "" : ", ") + "object " + std::to_string(k + 1) + " (" +
+                    rq.names[k] + ") " + (run->stalled[k] ? "stalled" : "stopped short of its first-run surface");
       continue;
     }
     // Not short: the next pass starts it where this one left it.
     run->fine[k] = mesh_vertices(run->ws.e, k);
   }
-  if (short_of < 0) return;
+  if (short_ones.empty()) return;
   if (!rq.quiet)
-    std::fprintf(stderr, "ffseg: object %d (%s) %s at mesh resolution %u; refining the first run's meshes "
-                 "instead\n", short_of + 1, rq.names[short_of].c_str(),
-                 run->stalled[short_of] ? "stalled" : "stopped short of its first-run surface", fine);
+    std::fprintf(stderr, "ffseg: %s at mesh resolution %u; refining the first run's meshes instead\n",
+                 short_ones.c_str(), fine);
   // Started again from the first run's meshes: the objects that fell short.
   // The others keep what the finer run gave them (their finer meshes, at
   // rest): the 3 mm CT's liver from its sphere at n = 22-24 is better than
@@ -682,7 +706,9 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
     }
     if (run.start_from_coarse) {
       o.set("kept_first_run_surface", run.from_coarse[k] != 0);
-      o.set("started_from_finer_run", run.started_from_fine(k));
+      o.set("fell_short_at_finer_run", run.fell_short[k] != 0);
+      o.set("started_from", start_name(run.start[k]));
+      o.set("started_from_finer_run", run.start[k] == kStartFinerRun);
     }
     if (nobj > 1) {
       if (k < FFSEG_REPORT_OBJECTS) o.set("border_vertices", r.border_vertices);  // ffseg_step_info's reach
