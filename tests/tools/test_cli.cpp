@@ -931,6 +931,14 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     const Json* objs = rep.get("objects");
     REQUIRE(objs != nullptr);
     CHECK((*objs)[0].get("vertices")->as_number() == 6 * n * n);
+    // Two passes, both counted: steps and stepping are the last pass's, the
+    // *_all_passes figures add the first run's, and the summary says so.
+    CHECK(rep.get("passes")->as_number() == 2);
+    const double steps = rep.get("steps")->as_number(), all = rep.get("steps_all_passes")->as_number();
+    CHECK(all > steps);
+    const Json* t = rep.get("time_ms");
+    CHECK(t->get("stepping_all_passes")->as_number() > t->get("stepping")->as_number());
+    CHECK(r.out.find("(2 passes: " + std::to_string(int(all)) + " steps in ") != std::string::npos);
   }
   {  // A first run measured before it rests (kMeasureSteps) and kept goes on
      // from there: the same steps and mask as a run fixed at 12.
@@ -956,6 +964,9 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     CHECK(rep.get("config")->get("mesh_resolution")->as_number() == 9);
     CHECK(rep.get("config")->get("mesh_resolution_source")->as_string() == "--mesh-resolution");
     CHECK(rep.get("config")->get("asked_mesh_resolution") == nullptr);
+    CHECK(rep.get("passes")->as_number() == 1);
+    CHECK(rep.get("steps_all_passes")->as_number() == rep.get("steps")->as_number());
+    CHECK(r.out.find("passes") == std::string::npos);
   }
 }
 

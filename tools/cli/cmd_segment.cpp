@@ -250,6 +250,11 @@ struct EngineRun {
   std::vector<std::array<double, 3>> far;  // outward, inward, vertices: at each object's last moving step
   // Seconds: every pass's engine setup; the last pass's steps (as stage_us).
   double t_setup = 0, t_stepping = 0;
+  // Every pass's steps and stepping (the first run's, the finer run's and the
+  // one made again): what the whole segmentation cost, not only its last pass.
+  int64_t steps_all = 0;
+  double t_stepping_all = 0;
+  int passes = 0;
   // The workspace budget the engines are sized by: --memory, doubled each
   // time an organ outgrew a crop or region the budget gave it (run_engine).
   uint64_t memory_bytes = 0;
@@ -494,6 +499,9 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   const uint32_t nobj = rq.objects();
   run->resolution = automatic || fixed_fine ? kFirstResolution : rq.mesh_resolution;
   run->t_setup = 0;
+  run->t_stepping_all = 0;
+  run->steps_all = 0;
+  run->passes = 0;
   run->coarse.clear();
   run->start_from_coarse = false;
   run->fine.clear();
@@ -505,6 +513,9 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
     const auto t_step0 = std::chrono::steady_clock::now();
     const bool at_rest = step_to_rest(rq, run, limit, false);
     run->t_stepping = seconds_since(t_step0);
+    run->t_stepping_all += run->t_stepping;
+    run->steps_all += run->steps;
+    ++run->passes;
     return at_rest;
   };
   const bool at_rest = pass(automatic ? kMeasureSteps : rq.max_steps);
@@ -517,8 +528,12 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   if (fine == 0) {
     if (!at_rest) {
       const auto t_step0 = std::chrono::steady_clock::now();
+      const int64_t before = run->steps;
       step_to_rest(rq, run, rq.max_steps, true);
-      run->t_stepping += seconds_since(t_step0);
+      const double t = seconds_since(t_step0);
+      run->t_stepping += t;
+      run->t_stepping_all += t;
+      run->steps_all += run->steps - before;
     }
     run->stalled = stalled_objects(*run, nobj);
     return;
@@ -744,6 +759,8 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
   rep.set("target", target_name(rq.params.target_mode));
   rep.set("non_finite_voxels", uint64_t(in.nonfinite_voxels));
   rep.set("steps", run.steps);
+  rep.set("steps_all_passes", run.steps_all);
+  rep.set("passes", run.passes);
   rep.set("max_steps", rq.max_steps);
   rep.set("converged", run.converged);
   uint64_t stalled = 0;
@@ -760,7 +777,8 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
   }
   tj.set("read", ms(times.read));
   tj.set("setup", ms(run.t_setup));
-  tj.set("stepping", ms(run.t_stepping));
+  tj.set("stepping", ms(run.t_stepping));  // the last pass's (its stages below)
+  tj.set("stepping_all_passes", ms(run.t_stepping_all));
   tj.set("stages", std::move(stages));
   tj.set("stages_total", double(stage_total) / 1000.0);
   tj.set("outputs", ms(seconds_since(times.outputs0)));
@@ -865,9 +883,12 @@ void print_summary(const SegmentRequest& rq, const EngineRun& run, const std::ve
   const uint32_t nobj = rq.objects();
   bool stalled = false;
   for (uint8_t st : run.stalled) stalled = stalled || st;
-  std::printf("%s after %lld step%s in %.2f s; outputs in %s/\n",
-              stalled ? "stalled" : run.converged ? "converged" : "stopped",
-              static_cast<long long>(run.steps), run.steps == 1 ? "" : "s", run.t_stepping, rq.out_dir.c_str());
+  std::printf("%s after %lld step%s in %.2f s", stalled ? "stalled" : run.converged ? "converged" : "stopped",
+              static_cast<long long>(run.steps), run.steps == 1 ? "" : "s", run.t_stepping);
+  if (run.passes > 1)
+    std::printf(" (%d passes: %lld steps in %.2f s)", run.passes, static_cast<long long>(run.steps_all),
+                run.t_stepping_all);
+  std::printf("; outputs in %s/\n", rq.out_dir.c_str());
   for (uint32_t k = 0; k < nobj; ++k) {
     const ffseg_tools::Json& o = (*rep.get("objects"))[k];
     std::printf("  %-16s %8.3f ml  %6llu vertices", rq.names[k].c_str(), o.get("volume_ml")->as_number(),
