@@ -212,13 +212,13 @@ void read_inputs(SegmentRequest* rq, Inputs* in) {
                  "intensity model and read as outside every object\n", in->nonfinite_voxels, rq->volume_path.c_str());
 }
 
-// The engine's run: its workspace (the results are read from it), how it
-// went and how long it took.
 // Where an object's mesh started in the last engine (report.json:
 // objects[].started_from).
 constexpr uint8_t kStartSphere = 0, kStartFirstRun = 1, kStartFinerRun = 2;
 const char* start_name(uint8_t k) { return k == kStartFinerRun ? "finer run" : k == kStartFirstRun ? "first run" : "sphere"; }
 
+// The engine's run: its workspace (the results are read from it), how it
+// went and how long it took.
 struct EngineRun {
   Workspace ws;
   ffseg_config cfg{};
