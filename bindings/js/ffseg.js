@@ -428,14 +428,18 @@
      * run_engine), so the same inputs give the tool's masks: n above 12 first
      * runs at n = 12 to rest, then at n from the spheres; when an object of
      * that run stalls or ends more than 2% smaller than at n = 12, the run is
-     * made again from the n = 12 meshes (initMesh), and an object that still
+     * made again: that object from its n = 12 mesh, the others from their
+     * finer meshes, each else from its n = 12 mesh, else from its sphere, the
+     * larger organs (n = 12 voxels) placed first so that where two meshes
+     * overlap the larger keeps its own (initMesh); and an object that still
      * stalls where its first run did not is put back on its n = 12 surface.
      *   volume:  { voxels, dims, affine, sclSlope, sclInter } (nifti.read's)
      *   spheres: [{ centre: [x, y, z] mm, radius mm }]
      *   options: meshResolution (33), maxSteps per run (200), targetMode
      *            ("intensity"), maxRoiVoxels (min(voxels, 2^26)), maxRegionVoxels
      *            (the library's default, maxRoiVoxels), engines (a Map
-     *            to keep the engines, and so their workspaces, for the next call),
+     *            to keep the engines, and so their workspaces, for the next call;
+     *            one object's only: several objects get a new engine each run),
      *            onStep(report, { run, meshResolution, engine }) (awaited),
      *            shouldStop() (checked before each step).
      * Returns { masks, meshes, steps and stepMs (the last run's, as the tool
@@ -448,8 +452,14 @@
       const k = spheres.length;
       const roi = maxRoiVoxels === undefined ? Math.min(count, 2 ** 26) : maxRoiVoxels;
       const out = { runs: [], stopped: false };
-      const engineAt = (n) => {
+      // fresh: an engine with no object placed. The engine has no call that
+      // takes an object away, and each run of several objects must place its
+      // meshes where no earlier run's (this call's or the last one's) stand,
+      // as the tool's new engine for each run does: a kept engine would refuse
+      // them for overlapping meshes that are no longer meant.
+      const engineAt = (n, fresh = false) => {
         const key = JSON.stringify([k, n, roi, maxRegionVoxels ?? null, targetMode]);
+        if (fresh && engines.has(key)) { engines.get(key).close(); engines.delete(key); }
         if (!engines.has(key)) {
           for (const [old, e] of engines) if (JSON.parse(old)[1] === n) { e.close(); engines.delete(old); }
           engines.set(key, new Engine({ maxObjects: k, meshResolution: n, maxRoiVoxels: roi, maxRegionVoxels, targetMode }));
@@ -458,23 +468,31 @@
       };
       const voxelsOf = (e) => spheres.map((_, j) => { let c = 0; const m = e.rasterize(j); for (let i = 0; i < m.length; ++i) c += m[i]; return c; });
       const stalledOf = (r) => spheres.map((_, j) => ((r && r.objectFlags[j]) & STALLED) !== 0);
-      async function run(n, from) {
-        const e = engineAt(n);
+      // starts[j]: the meshes object j tries in turn before its sphere; order:
+      // the objects in the order they are placed (the tool's start_engine).
+      async function run(n, starts, order) {
+        const e = engineAt(n, k > 1);
         e.setParams({ targetMode });
         e.setVolume(volume.voxels, volume.dims, volume.affine, { rescaleSlope: volume.sclSlope ?? 1, rescaleIntercept: volume.sclInter ?? 0 });
-        spheres.forEach((s, j) => {
-          if (from) {
-            try { e.initMesh(j, s.centre, s.radius, from[j]); return; } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; }
+        const mixed = Boolean(starts) && starts.some((list) => list.length > 1);
+        for (const j of order || spheres.map((_, i) => i)) {
+          const s = spheres[j];
+          let placed = false;
+          for (const v of starts ? starts[j] : []) {
+            try { e.initMesh(j, s.centre, s.radius, v); placed = true; break; } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; }
           }
+          if (placed) continue;
           try {
             e.initSphere(j, s.centre, s.radius);
           } catch (ex) {
             if (!(ex instanceof FfsegError)) throw ex;
+            // No start beside the finer meshes: every object from its first-run mesh.
+            if (mixed) return run(n, starts.map((list) => list.slice(-1)), order);
             const where = `sphere ${j + 1} (${Array.from(s.centre, (x) => Number(x).toFixed(1)).join(", ")}; r ${s.radius} mm)`;
             throw new FfsegError(ex.status, `${where}: ${ex.engineMessage}`, ex.call);
           }
-        });
-        const r = { meshResolution: n, from: from ? "first run" : "spheres", steps: 0, status: "ok", engine: e, last: null, stepMs: [] };
+        }
+        const r = { meshResolution: n, from: starts ? "first run" : "spheres", steps: 0, status: "ok", engine: e, last: null, stepMs: [] };
         while (r.steps < maxSteps) {
           if (shouldStop && shouldStop()) { out.stopped = true; break; }
           const t0 = performance.now();
@@ -497,8 +515,12 @@
         final = out.stopped ? first : await run(meshResolution, null);
         if (!out.stopped) {
           const fineVoxels = voxelsOf(final.engine), stalled = stalledOf(final.last);
-          if (spheres.some((_, j) => stalled[j] || fineVoxels[j] < (1 - SHORT_OF_FIRST_RUN) * coarseVoxels[j])) {
-            final = await run(meshResolution, coarse);
+          const short = spheres.map((_, j) => stalled[j] || fineVoxels[j] < (1 - SHORT_OF_FIRST_RUN) * coarseVoxels[j]);
+          if (short.some(Boolean)) {
+            const fine = spheres.map((_, j) => final.engine.extractMesh(j).vertices);
+            const starts = spheres.map((_, j) => (short[j] ? [coarse[j]] : [fine[j], coarse[j]]));
+            const order = spheres.map((_, j) => j).sort((a, b) => coarseVoxels[b] - coarseVoxels[a] || a - b);
+            final = await run(meshResolution, starts, order);
             const still = stalledOf(final.last);
             spheres.forEach((s, j) => {
               if (!still[j] || coarseStalled[j]) return;

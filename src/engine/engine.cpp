@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <cstdlib>
 #include <new>
@@ -83,12 +84,13 @@ void Engine::layout(Arena& a) {
   }
 }
 
-size_t Engine::workspace_bytes(const Config& c) {
+size_t Engine::workspace_bytes(const Config& c, unsigned char* image) {
   Arena a;
   a.alloc<Engine>(1);
   Engine probe;
   probe.cfg_ = c;
   probe.layout(a);
+  if (image) std::memcpy(image, static_cast<const void*>(&probe), sizeof probe);
   return a.overflowed() ? 0 : a.used();
 }
 

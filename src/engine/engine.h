@@ -19,8 +19,13 @@ class Engine {
  public:
   static constexpr size_t kMsgLen = 512;
 
-  // Exact workspace bytes for c (c must have passed check_config).
-  static size_t workspace_bytes(const Config& c);
+  // Exact workspace bytes for c (c must have passed check_config). image
+  // (optional, sizeof(Engine) bytes) receives the measured engine's bytes:
+  // its fields as a created engine's would be, but every address it would
+  // hold into the workspace null, so that the C API can tell those words
+  // from fields whose values merely fall in the workspace's address range (a
+  // double's high word on a 32-bit target).
+  static size_t workspace_bytes(const Config& c, unsigned char* image = nullptr);
   // Builds an engine at the start of the workspace (64-byte aligned, at least
   // workspace_bytes(c) long).
   static Engine* create(const Config& c, void* ws, size_t bytes);
