@@ -9,8 +9,9 @@ importScripts("ffseg.js", "ffseg-binding.js", "nifti.js");
 let lib = null;
 let image = null;
 // The engines (one per mesh resolution a run uses) and their workspaces
-// outlive a run: the next Segment with the same objects count and target
-// reuses them.
+// outlive a run: the next Segment of one object with the same target reuses
+// them (several objects get a new engine each run: an engine cannot take its
+// objects away, and the last run's meshes would stand in the new spheres' way).
 const engines = new Map();
 let stopRequested = false;
 let busy = false;
