@@ -9,6 +9,7 @@ void IntersectionScratch::carve(Arena& a, uint32_t nv) {
   pts = a.alloc<double>(size_t(6) * nv);
   mark = a.alloc<uint8_t>(nv);
   len = a.alloc<double>(nv);
+  cones.carve(a, 2 * nv);
 }
 
 namespace {
@@ -56,6 +57,7 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
     if (!(dsum > 0)) break;
     const double h = std::fmax(edge, dsum / dn);
     s.grid.build(s.pts, 2 * nv, h);
+    s.cones.build(s.grid, nv, d, s.len, has);
     uint32_t conflicts = 0;
     for (uint32_t i = 0; i < nv; ++i) {
       if (!has[i] || !(s.mark[i] & kActive)) continue;
@@ -63,7 +65,12 @@ uint32_t prevent_folds(const CubeSphere& m, const double* x, double* d, const ui
       const double li = s.len[i];
       if (!(li > 0)) continue;
       const uint32_t* nb = m.nbr + 4 * size_t(i);
-      s.grid.for_each_in_ball(x + 3 * size_t(i), alpha * li, [&](uint32_t id) {
+      // A bucket whose every member agrees with d_i in direction holds no
+      // partner of a conflict: it is passed over as a whole.
+      const bool coned = DirectionCones::bounded(li);
+      const double u[3] = {di[0] / li, di[1] / li, di[2] / li};
+      auto agree = [&](uint32_t first) { return coned && s.cones.all_agree(first, u, tau); };
+      s.grid.for_each_in_ball_unless(x + 3 * size_t(i), alpha * li, agree, [&](uint32_t id) {
         const uint32_t j = id < nv ? id : id - nv;
         if (j == i || !has[j] || j == nb[0] || j == nb[1] || j == nb[2] || j == nb[3]) return;
         const double* dj = d + 3 * size_t(j);
