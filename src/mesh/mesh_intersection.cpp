@@ -388,12 +388,16 @@ void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double r
 // pair; each pair by the same decision as the grid path (the same boxes and
 // bounding spheres, then triangles_cross). Returns 0 or 1, or -1 when the
 // certificate cannot decide (too many windows fail): then the grid path.
-int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
+// With mark, every pair the certificate leaves open is decided, since the
+// ones it proves apart hold no crossing: the crossing pairs are the grid
+// path's, counted, marked and recorded (as P.hit does), and the count is
+// returned (-1 as before, nothing marked).
+int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark = nullptr) {
   PatchCertificate& c = s.cert;
   if (!c.built) c.build(m);
   const uint32_t max_failed = c.ncl / c.fail_share;
   if (!c.certify(x, s.normal, s.lo, s.hi, max_failed)) return -1;
-  Pairs P{m, x, s, nullptr, false};
+  Pairs P{m, x, s, mark, mark != nullptr};
   auto decide = [&](uint32_t t, uint32_t u) {
     if (t == u) return false;
     if (t > u) std::swap(t, u);
@@ -402,7 +406,8 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
     // Sharing one vertex (most pairs of a failed window): fan_pairs()' plane
     // filter first, which answers no only where triangles_cross() would.
     if (shared == 1 && P.fan_pair_apart(t, u)) return false;
-    return P.spheres_meet(t, u) && triangles_cross(x, s, t, u);
+    // hit() stops the walk only without marks.
+    return P.spheres_meet(t, u) && triangles_cross(x, s, t, u) && P.hit(t, u);
   };
   auto cluster_tris = [&](uint32_t cl, auto&& f) {
     for (uint32_t k = c.tri_ptr[cl]; k < c.tri_ptr[cl + 1]; ++k)
@@ -477,7 +482,7 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
   }
   const bool far_hit = c.for_each_far_pair(
       [&](uint32_t a, uint32_t b) { return cluster_tris(a, [&](uint32_t t) { return against(t, b, kNone); }); });
-  return far_hit ? 1 : 0;
+  return mark ? int(P.count) : far_hit ? 1 : 0;
 }
 
 // The whole check from scratch; with record, also keeps the crossing pairs
@@ -509,12 +514,21 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
     s.lo[q] -= s.eps;
     s.hi[q] += s.eps;
   }
-  if (!mark && s.certificate_enabled()) {
-    const int r = certified_check(m, x, s);
+  // The certificate answers the yes/no query, and finds the pairs of a
+  // recorded check (the first of a guard call's tracked ones, most often
+  // right after the yes/no query found a crossing) at a fraction of the grid
+  // path's cost. The tracked calls that follow a recorded check need its
+  // grid all the same: laid out then (without its pair search).
+  if ((!mark || record) && s.certificate_enabled()) {
+    s.npairs = 0;
+    s.tracked = record;
+    const int r = certified_check(m, x, s, mark);
     if (r >= 0) {
       s.count_certified();
+      if (record) layout_grid(m, s, emean, rmax);
       return uint32_t(r);
     }
+    s.tracked = false;
   }
   layout_grid(m, s, emean, rmax);
   s.npairs = 0;

@@ -61,8 +61,10 @@ struct TriangleScratch {
   // Whether the guard's last test stopped before refreshing every face of
   // the face_*_new cache (then it holds no whole position set).
   bool face_new_partial = false;
-  // The yes/no query (mark == nullptr) first tries to certify the mesh's
-  // local windows free of crossings (patch_certificate.h).
+  // The yes/no query (mark == nullptr) and the recorded check from scratch
+  // (mark_intersections_tracked without moved) first try to certify the
+  // mesh's local windows free of crossings (patch_certificate.h); the pairs
+  // of the windows that fail are then the only ones to decide.
   PatchCertificate cert;
   void carve(Arena& a, const CubeSphere& m);
   // What depends on the mesh's topology only (the certificate's clusters,
@@ -80,7 +82,7 @@ struct TriangleScratch {
   // certified and the plain path and check that the guard's cache is used.
   friend struct TriangleScratchTesting;
   bool use_certificate_ = true;
-  uint32_t certified_calls_ = 0;   // yes/no queries the certificate decided
+  uint32_t certified_calls_ = 0;   // queries and recorded checks the certificate decided
   uint32_t reused_old_cache_ = 0;  // guard steps that swapped the cache in
 };
 
