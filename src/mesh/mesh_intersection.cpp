@@ -491,6 +491,7 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
                     const uint8_t* alt) {
   const uint32_t nt = m.triangle_count();
   s.tracked = false;
+  s.layout_pending = false;
   if (alt) {
     uint32_t t = 0;
     for (uint32_t f = 0; f < m.nfaces; ++f) t += uint32_t(face_split(m, f, alt[f] != 0, s.tris + 3 * size_t(t)));
@@ -518,14 +519,17 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
   // recorded check (the first of a guard call's tracked ones, most often
   // right after the yes/no query found a crossing) at a fraction of the grid
   // path's cost. The tracked calls that follow a recorded check need its
-  // grid all the same: laid out then (without its pair search).
+  // grid all the same: laid out by the first of them (without the grid's
+  // pair search).
   if ((!mark || record) && s.certificate_enabled()) {
     s.npairs = 0;
     s.tracked = record;
     const int r = certified_check(m, x, s, mark);
     if (r >= 0) {
       s.count_certified();
-      if (record) layout_grid(m, s, emean, rmax);
+      s.layout_pending = record;
+      s.layout_emean = emean;
+      s.layout_rmax = rmax;
       return uint32_t(r);
     }
     s.tracked = false;
@@ -562,6 +566,11 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
                                     const uint8_t* moved, const uint8_t* alt) {
   if (!moved || !s.tracked) return full_check(m, x, s, mark, true, alt);
   const uint32_t nt = m.triangle_count();
+  // The boxes are still the recorded check's.
+  if (s.layout_pending) {
+    layout_grid(m, s, s.layout_emean, s.layout_rmax);
+    s.layout_pending = false;
+  }
   // Re-split and re-measure the faces around moved vertices.
   for (uint32_t t = 0; t < nt; ++t) s.touched[t] = 0;
   uint32_t ntouched = 0;

@@ -39,6 +39,11 @@ struct TriangleScratch {
   uint32_t* pairs = nullptr;
   uint32_t npairs = 0, pair_cap = 0;
   bool tracked = false;
+  // A recorded check the certificate decided leaves the grid to the first
+  // tracked call after it (a guard call's first test is usually its last),
+  // which lays it out for that check's boxes from these.
+  bool layout_pending = false;
+  double layout_emean = 0, layout_rmax = 0;
   uint8_t* touched = nullptr;
   // For the step guard: one byte per face, two per vertex.
   uint8_t* face_flags = nullptr;
