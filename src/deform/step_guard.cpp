@@ -219,8 +219,8 @@ void cache_face(const CubeSphere& m, uint32_t f, const double* x, double* n, uin
   // are the triangles' tri_normal()s (same vertices, same order).
   const double* p3 = x + 3 * size_t(q[3]);
   double a0[3], a1[3], b0[3], b1[3];
-  const double c02 = detail::split_cos(p0, p1, p2, p3, a0, a1);
-  const double c13 = detail::split_cos(p1, p2, p3, p0, b0, b1);
+  double c02, c13;
+  detail::split_cos_both(p0, p1, p2, p3, &c02, &c13, a0, a1, b0, b1);
   const bool al = detail::split_alt(c02, c13);
   alt[f] = al;
   for (int k = 0; k < 3; ++k) {
