@@ -516,11 +516,10 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
     s.hi[q] += s.eps;
   }
   // The certificate answers the yes/no query, and finds the pairs of a
-  // recorded check (the first of a guard call's tracked ones, most often
-  // right after the yes/no query found a crossing) at a fraction of the grid
-  // path's cost. The tracked calls that follow a recorded check need its
-  // grid all the same: laid out by the first of them (without the grid's
-  // pair search).
+  // recorded check (the guard's first intersection test of a call, or a
+  // tracked check starting afresh) at a fraction of the grid path's cost.
+  // The tracked calls that follow a recorded check need its grid all the
+  // same: laid out by the first of them (without the grid's pair search).
   if ((!mark || record) && s.certificate_enabled()) {
     s.npairs = 0;
     s.tracked = record;
