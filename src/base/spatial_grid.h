@@ -109,6 +109,14 @@ class SpatialGrid : public CellTable {
   // Calls f(id) once for every point within r of c (ids are indices into pts).
   template <class F>
   void for_each_in_ball(const double c[3], double r, F&& f) const {
+    for_each_in_ball_unless(c, r, [](uint32_t) { return false; }, f);
+  }
+  // The same, passing over the buckets for which skip(first) holds, first
+  // being the bucket's first slot in bucket order (see for_each_bucket): a
+  // caller that knows from a bucket's summary that none of its points
+  // matters spares their distance tests.
+  template <class Skip, class F>
+  void for_each_in_ball_unless(const double c[3], double r, Skip&& skip, F&& f) const {
     const double r2 = r * r;
     const double lo[3] = {c[0] - r, c[1] - r, c[2] - r}, hi[3] = {c[0] + r, c[1] + r, c[2] + r};
     // A cell's points are tested in a row, from their copies in bucket
@@ -120,7 +128,9 @@ class SpatialGrid : public CellTable {
     for_each_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
       const uint32_t h = hash(x, y, z);
       const uint64_t pc = pack(x, y, z);
-      for (uint32_t k0 = start_[h], end = start_[h + 1]; k0 < end; k0 += kChunk) {
+      const uint32_t first = start_[h], end = start_[h + 1];
+      if (first == end || skip(first)) return;
+      for (uint32_t k0 = first; k0 < end; k0 += kChunk) {
         const uint32_t k1 = end - k0 < kChunk ? end : k0 + kChunk;
         uint32_t n = 0;
         for (uint32_t k = k0; k < k1; ++k) {
@@ -133,6 +143,17 @@ class SpatialGrid : public CellTable {
       }
     });
   }
+
+  // Calls f(first, end) for every bucket holding points: its slots in
+  // bucket order are first <= k < end (id_at(k) the point of slot k). A
+  // caller may keep one summary per bucket at its first slot (distinct
+  // buckets have distinct first slots; room for as many slots as points).
+  template <class F>
+  void for_each_bucket(F&& f) const {
+    for (uint32_t b = 0; b < table_; ++b)
+      if (start_[b] < start_[b + 1]) f(start_[b], start_[b + 1]);
+  }
+  uint32_t id_at(uint32_t k) const { return ids_[k]; }
 
   // Calls f(id) once for every point whose cell overlaps the box [lo, hi]
   // (a superset of the points inside it; the caller filters).

@@ -7,6 +7,7 @@
 #include <cstdint>
 
 #include "cubesphere.h"
+#include "direction_cones.h"
 #include "spatial_grid.h"
 
 namespace ffseg {
@@ -16,6 +17,8 @@ struct IntersectionScratch {
   double* pts = nullptr; // 6 * nv: vertices, then targets
   uint8_t* mark = nullptr;
   double* len = nullptr;  // nv: |d_v| this pass (each ball's partners read it)
+  DirectionCones cones;   // over grid's buckets
+  SpatialGrid moved;      // over nv points: the targets moved by the passes after the first
   void carve(Arena& a, uint32_t nv);
 };
 

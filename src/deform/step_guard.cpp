@@ -219,8 +219,8 @@ void cache_face(const CubeSphere& m, uint32_t f, const double* x, double* n, uin
   // are the triangles' tri_normal()s (same vertices, same order).
   const double* p3 = x + 3 * size_t(q[3]);
   double a0[3], a1[3], b0[3], b1[3];
-  const double c02 = detail::split_cos(p0, p1, p2, p3, a0, a1);
-  const double c13 = detail::split_cos(p1, p2, p3, p0, b0, b1);
+  double c02, c13;
+  detail::split_cos_both(p0, p1, p2, p3, &c02, &c13, a0, a1, b0, b1);
   const bool al = detail::split_alt(c02, c13);
   alt[f] = al;
   for (int k = 0; k < 3; ++k) {
@@ -414,10 +414,10 @@ uint32_t mark_all(const CubeSphere& m, const double* x_old, const double* xs, co
   if (moved)
     for (size_t v = 0; v < m.nv; ++v) pending[v] |= moved[v];
   if (count > 0) return count;
-  // The first test of a guard call usually finds the round clean (which ends
-  // the rounds): the yes/no query (certified, far cheaper than finding every
-  // pair, with the same answer) tells it; only a crossing calls for the pairs.
-  if (!*tracked && mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) == 0) return 0;
+  // The first test of a guard call is a recorded check from scratch: the
+  // patch certificate decides it as cheaply as the yes/no query when the
+  // round is clean (which usually ends the rounds), and finds the pairs of
+  // a crossing without a second check.
   const uint32_t pairs =
       mark_intersections_tracked(m, xs, ts, ts.vertex_marks, *tracked ? pending : nullptr, ts.face_alt_new);
   *tracked = true;

@@ -388,12 +388,16 @@ void layout_grid(const CubeSphere& m, TriangleScratch& s, double emean, double r
 // pair; each pair by the same decision as the grid path (the same boxes and
 // bounding spheres, then triangles_cross). Returns 0 or 1, or -1 when the
 // certificate cannot decide (too many windows fail): then the grid path.
-int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
+// With mark, every pair the certificate leaves open is decided, since the
+// ones it proves apart hold no crossing: the crossing pairs are the grid
+// path's, counted, marked and recorded (as P.hit does), and the count is
+// returned (-1 as before, nothing marked).
+int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark = nullptr) {
   PatchCertificate& c = s.cert;
   if (!c.built) c.build(m);
   const uint32_t max_failed = c.ncl / c.fail_share;
   if (!c.certify(x, s.normal, s.lo, s.hi, max_failed)) return -1;
-  Pairs P{m, x, s, nullptr, false};
+  Pairs P{m, x, s, mark, mark != nullptr};
   auto decide = [&](uint32_t t, uint32_t u) {
     if (t == u) return false;
     if (t > u) std::swap(t, u);
@@ -402,7 +406,8 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
     // Sharing one vertex (most pairs of a failed window): fan_pairs()' plane
     // filter first, which answers no only where triangles_cross() would.
     if (shared == 1 && P.fan_pair_apart(t, u)) return false;
-    return P.spheres_meet(t, u) && triangles_cross(x, s, t, u);
+    // hit() stops the walk only without marks.
+    return P.spheres_meet(t, u) && triangles_cross(x, s, t, u) && P.hit(t, u);
   };
   auto cluster_tris = [&](uint32_t cl, auto&& f) {
     for (uint32_t k = c.tri_ptr[cl]; k < c.tri_ptr[cl + 1]; ++k)
@@ -477,7 +482,7 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s) {
   }
   const bool far_hit = c.for_each_far_pair(
       [&](uint32_t a, uint32_t b) { return cluster_tris(a, [&](uint32_t t) { return against(t, b, kNone); }); });
-  return far_hit ? 1 : 0;
+  return mark ? int(P.count) : far_hit ? 1 : 0;
 }
 
 // The whole check from scratch; with record, also keeps the crossing pairs
@@ -486,6 +491,7 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
                     const uint8_t* alt) {
   const uint32_t nt = m.triangle_count();
   s.tracked = false;
+  s.layout_pending = false;
   if (alt) {
     uint32_t t = 0;
     for (uint32_t f = 0; f < m.nfaces; ++f) t += uint32_t(face_split(m, f, alt[f] != 0, s.tris + 3 * size_t(t)));
@@ -509,12 +515,23 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
     s.lo[q] -= s.eps;
     s.hi[q] += s.eps;
   }
-  if (!mark && s.certificate_enabled()) {
-    const int r = certified_check(m, x, s);
+  // The certificate answers the yes/no query, and finds the pairs of a
+  // recorded check (the guard's first intersection test of a call, or a
+  // tracked check starting afresh) at a fraction of the grid path's cost.
+  // The tracked calls that follow a recorded check need its grid all the
+  // same: laid out by the first of them (without the grid's pair search).
+  if ((!mark || record) && s.certificate_enabled()) {
+    s.npairs = 0;
+    s.tracked = record;
+    const int r = certified_check(m, x, s, mark);
     if (r >= 0) {
       s.count_certified();
+      s.layout_pending = record;
+      s.layout_emean = emean;
+      s.layout_rmax = rmax;
       return uint32_t(r);
     }
+    s.tracked = false;
   }
   layout_grid(m, s, emean, rmax);
   s.npairs = 0;
@@ -548,6 +565,11 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
                                     const uint8_t* moved, const uint8_t* alt) {
   if (!moved || !s.tracked) return full_check(m, x, s, mark, true, alt);
   const uint32_t nt = m.triangle_count();
+  // The boxes are still the recorded check's.
+  if (s.layout_pending) {
+    layout_grid(m, s, s.layout_emean, s.layout_rmax);
+    s.layout_pending = false;
+  }
   // Re-split and re-measure the faces around moved vertices.
   for (uint32_t t = 0; t < nt; ++t) s.touched[t] = 0;
   uint32_t ntouched = 0;

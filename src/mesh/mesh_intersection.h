@@ -39,6 +39,11 @@ struct TriangleScratch {
   uint32_t* pairs = nullptr;
   uint32_t npairs = 0, pair_cap = 0;
   bool tracked = false;
+  // A recorded check the certificate decided leaves the grid to the first
+  // tracked call after it (a guard call's first test is usually its last),
+  // which lays it out for that check's boxes from these.
+  bool layout_pending = false;
+  double layout_emean = 0, layout_rmax = 0;
   uint8_t* touched = nullptr;
   // For the step guard: one byte per face, two per vertex.
   uint8_t* face_flags = nullptr;
@@ -61,8 +66,10 @@ struct TriangleScratch {
   // Whether the guard's last test stopped before refreshing every face of
   // the face_*_new cache (then it holds no whole position set).
   bool face_new_partial = false;
-  // The yes/no query (mark == nullptr) first tries to certify the mesh's
-  // local windows free of crossings (patch_certificate.h).
+  // The yes/no query (mark == nullptr) and the recorded check from scratch
+  // (mark_intersections_tracked without moved) first try to certify the
+  // mesh's local windows free of crossings (patch_certificate.h); the pairs
+  // of the windows that fail are then the only ones to decide.
   PatchCertificate cert;
   void carve(Arena& a, const CubeSphere& m);
   // What depends on the mesh's topology only (the certificate's clusters,
@@ -80,7 +87,7 @@ struct TriangleScratch {
   // certified and the plain path and check that the guard's cache is used.
   friend struct TriangleScratchTesting;
   bool use_certificate_ = true;
-  uint32_t certified_calls_ = 0;   // yes/no queries the certificate decided
+  uint32_t certified_calls_ = 0;   // queries and recorded checks the certificate decided
   uint32_t reused_old_cache_ = 0;  // guard steps that swapped the cache in
 };
 

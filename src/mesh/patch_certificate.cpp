@@ -49,7 +49,7 @@ inline uint32_t face_raw_cluster(const CubeSphere& m, uint32_t f, uint32_t block
 
 void PatchCertificate::carve(Arena& a, const CubeSphere& m) {
   block = m.n <= kSmallMesh ? 2 : 4;
-  fail_share = m.n <= kSmallMesh ? 2 : 8;
+  fail_share = m.n <= kSmallMesh ? 1 : 8;
   const uint32_t side = blocks_per_side(m.n, block);
   const uint32_t cap = 6 * side * side;  // clusters before dropping empty ones
   face_cluster = a.alloc<uint32_t>(m.nfaces);

@@ -66,10 +66,18 @@ TEST_CASE("workspace: pinned sizes of a few configurations (default max_roi_voxe
   // Then the fold prevention's grid copies its points in bucket order (48 B
   // a vertex: two points each) and the displacements' lengths (8 B a
   // vertex): +48 384 B at n = 12, +365 952 B at n = 33, shared by the objects.
-  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 231282816u);
-  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 19974144u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 38886720u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 20954432u);
+  // Then the fold prevention's cones of directions, one per bucket of its
+  // grid at the bucket's first slot (32 B a slot, two slots a vertex; the
+  // other slots hold the members' unit directions while a cone is built):
+  // +55 296 B at n = 12, +418 176 B at n = 33, shared by the objects.
+  // Then the fold prevention's second grid, over the targets its passes
+  // after the first have moved (room for a target per vertex: 40 B a vertex
+  // and a table of at least two buckets a vertex): +42 944 B at n = 12,
+  // +327 232 B at n = 33, shared by the objects.
+  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 231381056u);
+  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20072384u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 39632128u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 21699840u);
 }
 
 TEST_CASE("workspace: grey-level buffers are per object and only in intensity configurations") {

@@ -2,6 +2,7 @@
 // the bare cube-sphere, with and without the patch certificate.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -38,7 +39,7 @@ TEST_CASE("self-intersection test: the patch certificate answers the yes/no quer
   // their boxes) against the plain grid path and against the marking call.
   std::mt19937_64 rng(4242);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
-  uint32_t certified_yes = 0, certified_no = 0, cases = 0;
+  uint32_t certified_yes = 0, certified_no = 0, cases = 0, recorded_certified = 0;
   for (uint32_t n : {8u, 12u, 21u, 33u}) {
     StageBox b(n);
     const uint32_t nv = b.m.nv;
@@ -82,6 +83,25 @@ TEST_CASE("self-intersection test: the patch certificate answers the yes/no quer
       CHECK(plain == marked);
       CHECK(cert == plain);
       if (ffseg::TriangleScratchTesting::certified_calls(b.tri) > before) (cert ? certified_yes : certified_no) += 1;
+      // The recorded check from scratch (the certificate finds its pairs
+      // when it decides) marks what the marking call marked, with as many
+      // pairs; so does a tracked call after one vertex moved.
+      std::vector<uint8_t> want(nv, 0);
+      const uint32_t npairs = ffseg::mark_intersections(b.m, x.data(), b.tri, want.data());
+      std::vector<uint8_t> got(nv, 0);
+      const uint32_t before_rec = ffseg::TriangleScratchTesting::certified_calls(b.tri);
+      CHECK(ffseg::mark_intersections_tracked(b.m, x.data(), b.tri, got.data(), nullptr) == npairs);
+      CHECK(got == want);
+      recorded_certified += ffseg::TriangleScratchTesting::certified_calls(b.tri) > before_rec;
+      const uint32_t w = uint32_t(rng() % nv);
+      std::vector<uint8_t> moved(nv, 0);
+      moved[w] = 1;
+      for (int a = 0; a < 3; ++a) x[3 * size_t(w) + a] *= 0.9;
+      std::fill(got.begin(), got.end(), 0);
+      const uint32_t tracked = ffseg::mark_intersections_tracked(b.m, x.data(), b.tri, got.data(), moved.data());
+      std::vector<uint8_t> fresh(nv, 0);
+      CHECK(ffseg::mark_intersections(b.m, x.data(), b.tri, fresh.data()) == tracked);
+      CHECK(got == fresh);
       ++cases;
     }
   }
@@ -90,6 +110,7 @@ TEST_CASE("self-intersection test: the patch certificate answers the yes/no quer
   CAPTURE(cases);
   CHECK(certified_no >= 15);
   CHECK(certified_yes >= 10);
+  CHECK(recorded_certified >= 25);
   // A smooth sphere is certified outright at every size the guard meets.
   for (uint32_t n : {12u, 21u, 33u, 49u}) {
     CAPTURE(n);
