@@ -485,8 +485,10 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
 
     The defaults are the `ffseg segment` tool's (grey-level target, n = 33,
     200 steps, crop and region budgets from memory_bytes as its --memory,
-    workspace_sizing()), so the same inputs give the tool's masks voxel for
-    voxel. memory_bytes is where the workspace starts: an object that outgrows
+    workspace_sizing()), and it makes the tool's runs for --mesh-resolution n
+    (above 12: a first run at 12, then n, then coarse to fine where an object
+    falls short; _segment_once), so the same inputs give the tool's masks
+    voxel for voxel. memory_bytes is where the workspace starts: an object that outgrows
     the crop or region it gives makes the run start again with twice it (a
     RuntimeWarning says so); max_roi_voxels / max_region_voxels given are
     fixed sizes (Error ROI_TOO_LARGE). **params: any ffseg_params field.
@@ -502,8 +504,12 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
     while True:
         roi, region, _ = workspace_sizing(len(spheres), mesh_resolution, voxels, target_mode, max_roi_voxels,
                                           max_region_voxels, memory_bytes)
+
+        def sizes(n, budget=memory_bytes):  # each run's engine sized as the tool sizes it, by its own n
+            return workspace_sizing(len(spheres), n, voxels, target_mode, max_roi_voxels, max_region_voxels,
+                                    budget)[:2]
         try:
-            return _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, roi, region,
+            return _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, sizes,
                                  rescale_slope, rescale_intercept, return_meshes, params)
         except Error as ex:
             whole = min(voxels, ROI_CAP)
@@ -514,24 +520,109 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
                            f"with memory_bytes = {memory_bytes}", RuntimeWarning, stacklevel=2)
 
 
-def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, max_roi_voxels,
-                  max_region_voxels, rescale_slope, rescale_intercept, return_meshes, params):
-    with Engine(max_objects=len(spheres), mesh_resolution=mesh_resolution,
-                max_roi_voxels=max_roi_voxels, max_region_voxels=max_region_voxels) as e:
+# The tool's coarse to fine (tools/cli/cmd_segment.cpp, run_engine_once): a
+# resolution above FIRST_RESOLUTION first runs at it, and a finer object that
+# stalls or ends more than SHORT_OF_FIRST_RUN smaller is made again.
+FIRST_RESOLUTION = 12
+SHORT_OF_FIRST_RUN = 0.02
+
+
+def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, sizes,
+                  rescale_slope, rescale_intercept, return_meshes, params):
+    """The runs `ffseg segment --mesh-resolution n` makes: at n = 12 and below
+    one run from the spheres; above it a first run at n = 12, then n from the
+    spheres, and when some object of that run stalls or ends more than 2%
+    smaller than at n = 12, the run made again: those objects from their
+    n = 12 meshes, the others from their finer ones (each else from its
+    n = 12 mesh, else its sphere), the larger organs placed first; an object
+    that still stalls where its first run did not is put back on its n = 12
+    surface. Each run in an engine of its own, sized by sizes(n) -> (max_roi_voxels,
+    max_region_voxels)."""
+    k = len(spheres)
+
+    def engine(n):
+        roi, region = sizes(n)
+        e = Engine(max_objects=k, mesh_resolution=n, max_roi_voxels=roi, max_region_voxels=region)
         e.set_params(target_mode=target_mode, **params)
         e.set_volume(array, affine, rescale_slope, rescale_intercept)
-        for k, (centre, radius) in enumerate(spheres):
-            e.init_sphere(k, centre, radius)
+        return e
+
+    def to_rest(e):
         for _ in range(int(max_steps)):
             if e.step():
                 break
+        return e
+
+    def stalled(e):
+        info = e.last_step_info
+        flags = info.object_flags if info is not None else []
+        return [j < len(flags) and bool(flags[j] & OBJECT_STALLED) for j in range(k)]
+
+    def voxels(e):
+        return [int(_np.count_nonzero(e.rasterize(j))) for j in range(k)]
+
+    def from_spheres(n):
+        e = engine(n)
+        for j, (centre, radius) in enumerate(spheres):
+            e.init_sphere(j, centre, radius)
+        return to_rest(e)
+
+    def placed(n, starts, order):
+        """An engine at n with object j placed from the first of starts[j] it
+        takes, else its sphere, in `order`; None when a sphere is refused."""
+        e = engine(n)
+        for j in order:
+            centre, radius = spheres[j]
+            for v in starts[j]:
+                try:
+                    e.init_mesh(j, centre, radius, v)
+                    break
+                except Error:
+                    pass
+            else:
+                try:
+                    e.init_sphere(j, centre, radius)
+                except Error:
+                    e.close()
+                    return None
+        return e
+
+    if int(mesh_resolution) <= FIRST_RESOLUTION:
+        final = from_spheres(mesh_resolution)
+    else:
+        first = from_spheres(FIRST_RESOLUTION)
+        coarse = [first.extract_mesh(j)[0] for j in range(k)]
+        coarse_stalled, coarse_voxels = stalled(first), voxels(first)
+        first.close()
+        final = from_spheres(mesh_resolution)
+        fine_stalled, fine_voxels = stalled(final), voxels(final)
+        short = [fine_stalled[j] or fine_voxels[j] < (1 - SHORT_OF_FIRST_RUN) * coarse_voxels[j] for j in range(k)]
+        if any(short):
+            fine = [final.extract_mesh(j)[0] for j in range(k)]
+            final.close()
+            order = sorted(range(k), key=lambda j: -coarse_voxels[j])  # stable: ties in index order
+            starts = [[coarse[j]] if short[j] else [fine[j], coarse[j]] for j in range(k)]
+            e = placed(mesh_resolution, starts, order)
+            if e is None and not all(short):  # no start beside the finer meshes: all from the first run
+                e = placed(mesh_resolution, [[coarse[j]] for j in range(k)], order)
+            if e is None:
+                raise Error(-1, "no start for some object beside the others' meshes", "segment")
+            final = to_rest(e)
+            still = stalled(final)
+            for j, (centre, radius) in enumerate(spheres):
+                if still[j] and not coarse_stalled[j]:
+                    try:
+                        final.init_mesh(j, centre, radius, coarse[j])
+                    except Error:
+                        pass  # it touches a neighbour's finer mesh: the stalled one stays
+    with final as e:
         flags = getattr(e, "last_step_info", None)
         if flags is not None and flags.flags_all:
             _warnings.warn("ffseg.segment: some result is no segmentation (object_flags "
                            f"{flags.object_flags}: 1 = no vertex ever found a boundary, "
                            "2 = the object fills most of the grid, 4 = it stalled short of its "
                            "boundary)", RuntimeWarning, stacklevel=3)
-        masks = [e.rasterize(k) for k in range(len(spheres))]
+        masks = [e.rasterize(j) for j in range(k)]
         if return_meshes:
-            return masks, [e.extract_mesh(k) for k in range(len(spheres))]
+            return masks, [e.extract_mesh(j) for j in range(k)]
         return masks

@@ -56,3 +56,35 @@ def test_python_matches_the_cli_on_colin27(tmp_path):
     # A real deformation happened (not the initial sphere).
     r = np.linalg.norm(xyz - np.array(sphere["center_mm"], np.float32), axis=1)
     assert r.max() > 2 * sphere["radius_mm"]
+
+
+def test_python_makes_the_tools_runs_at_a_fine_resolution_eight_nuclei(tmp_path):
+    """Above n = 12 segment() makes the tool's runs: a first run at n = 12,
+    then n from the spheres, then the run made again where some object fell
+    short, the others keeping their finer meshes, the larger organs placed
+    first. Colin27's eight deep nuclei at n = 33 take all three (mixed
+    starts), and the label map must be the tool's voxel for voxel; before,
+    segment() made the one run from the spheres at n = 33."""
+    need_mricron()
+    import nibabel
+    labels = [71, 72, 73, 74, 75, 76, 77, 78]
+    out = tmp_path / "nuclei"
+    args = ["segment", f"{MRI}/ch2.nii.gz", "--mesh-resolution", "33", "--out", out, "-q"]
+    for label in labels:
+        args += ["--sphere-from-label", f"{MRI}/aal.nii.gz:{label}"]
+    run_cli(*args)
+    report = json.loads((out / "report.json").read_text())
+    assert report["passes"] == 3 and report["config"]["refined_from_first_run"]
+    assert {o["started_from"] for o in report["objects"]} >= {"finer run", "first run"}
+
+    img = nibabel.load(f"{MRI}/ch2.nii.gz")
+    raw = np.asarray(img.dataobj.get_unscaled())
+    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
+    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    spheres = [(o["sphere"]["center_mm"], o["sphere"]["radius_mm"]) for o in report["objects"]]
+    masks = ffseg.segment(raw, img.affine, spheres, mesh_resolution=33, rescale_slope=slope, rescale_intercept=inter)
+    cli = np.asarray(nibabel.load(str(out / "labels.nii.gz")).dataobj)
+    mine = np.zeros(cli.shape, cli.dtype)
+    for label, m in reversed(list(zip(labels, masks))):  # a voxel inside two meshes: the first object's
+        mine[m != 0] = label
+    assert int((mine != cli).sum()) == 0
