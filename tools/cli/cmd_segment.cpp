@@ -548,7 +548,6 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   for (uint32_t k = 0; k < nobj; ++k) run->coarse[k] = mesh_vertices(run->ws.e, k);
   run->coarse_stalled = stalled_objects(*run, nobj);
   run->coarse_voxels = object_voxels(run->ws.e, img, nobj);
-  const std::vector<uint64_t>& coarse_voxels = run->coarse_voxels;
   if (!rq.quiet && fixed_fine)
     std::fprintf(stderr, "ffseg: first run at mesh resolution %u; now at %u\n", kFirstResolution, fine);
   else if (!rq.quiet)
@@ -562,7 +561,7 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->fine.assign(nobj, {});
   run->fell_short.assign(nobj, 0);
   for (uint32_t k = 0; k < nobj; ++k) {
-    if (run->stalled[k] || double(fine_voxels[k]) < (1 - kShortOfFirstRun) * double(coarse_voxels[k])) {
+    if (run->stalled[k] || double(fine_voxels[k]) < (1 - kShortOfFirstRun) * double(run->coarse_voxels[k])) {
       run->fell_short[k] = 1;
       short_ones += std::string(short_ones.empty() ? "" : ", ") + "object " + std::to_string(k + 1) + " (" +
                     rq.names[k] + ") " + (run->stalled[k] ? "stalled" : "stopped short of its first-run surface");
