@@ -426,13 +426,11 @@
 
     /* The whole run as `ffseg segment --mesh-resolution n` makes it (tools/cli:
      * run_engine), so the same inputs give the tool's masks: n above 12 first
-     * runs at n = 12 to rest, then at n from the spheres; when an object of
-     * that run stalls or ends more than 2% smaller than at n = 12, the run is
-     * made again: that object from its n = 12 mesh, the others from their
-     * finer meshes, each else from its n = 12 mesh, else from its sphere, the
-     * larger organs (n = 12 voxels) placed first so that where two meshes
-     * overlap the larger keeps its own (initMesh); and an object that still
-     * stalls where its first run did not is put back on its n = 12 surface.
+     * runs at n = 12 to rest, then at n from the n = 12 meshes (coarse to
+     * fine, initMesh), the larger organs (n = 12 voxels) placed first so that
+     * where two resampled meshes overlap the larger keeps its own and the
+     * other starts from its sphere; an object that stalls at n where its
+     * first run did not is put back on its n = 12 surface.
      *   volume:  { voxels, dims, affine, sclSlope, sclInter } (nifti.read's)
      *   spheres: [{ centre: [x, y, z] mm, radius mm }]
      *   options: meshResolution (33), maxSteps per run (200), targetMode
@@ -447,7 +445,7 @@
      * steps, status, stepMs }], last (the last run's last report), stopped }. */
     async function segment(volume, spheres, { meshResolution = 33, maxSteps = 200, targetMode = "intensity", maxRoiVoxels,
       maxRegionVoxels, engines = new Map(), onStep, shouldStop } = {}) {
-      const FIRST = 12, SHORT_OF_FIRST_RUN = 0.02, STALLED = 4;
+      const FIRST = 12, STALLED = 4;
       const count = volume.dims[0] * volume.dims[1] * volume.dims[2];
       const k = spheres.length;
       const roi = maxRoiVoxels === undefined ? Math.min(count, 2 ** 26) : maxRoiVoxels;
@@ -474,7 +472,6 @@
         const e = engineAt(n, k > 1);
         e.setParams({ targetMode });
         e.setVolume(volume.voxels, volume.dims, volume.affine, { rescaleSlope: volume.sclSlope ?? 1, rescaleIntercept: volume.sclInter ?? 0 });
-        const mixed = Boolean(starts) && starts.some((list) => list.length > 1);
         for (const j of order || spheres.map((_, i) => i)) {
           const s = spheres[j];
           let placed = false;
@@ -486,8 +483,6 @@
             e.initSphere(j, s.centre, s.radius);
           } catch (ex) {
             if (!(ex instanceof FfsegError)) throw ex;
-            // No start beside the finer meshes: every object from its first-run mesh.
-            if (mixed) return run(n, starts.map((list) => list.slice(-1)), order);
             const where = `sphere ${j + 1} (${Array.from(s.centre, (x) => Number(x).toFixed(1)).join(", ")}; r ${s.radius} mm)`;
             throw new FfsegError(ex.status, `${where}: ${ex.engineMessage}`, ex.call);
           }
@@ -512,22 +507,15 @@
         const first = await run(FIRST, null);
         const coarse = spheres.map((_, j) => first.engine.extractMesh(j).vertices);
         const coarseStalled = stalledOf(first.last), coarseVoxels = voxelsOf(first.engine);
-        final = out.stopped ? first : await run(meshResolution, null);
         if (!out.stopped) {
-          const fineVoxels = voxelsOf(final.engine), stalled = stalledOf(final.last);
-          const short = spheres.map((_, j) => stalled[j] || fineVoxels[j] < (1 - SHORT_OF_FIRST_RUN) * coarseVoxels[j]);
-          if (short.some(Boolean)) {
-            const fine = spheres.map((_, j) => final.engine.extractMesh(j).vertices);
-            const starts = spheres.map((_, j) => (short[j] ? [coarse[j]] : [fine[j], coarse[j]]));
-            const order = spheres.map((_, j) => j).sort((a, b) => coarseVoxels[b] - coarseVoxels[a] || a - b);
-            final = await run(meshResolution, starts, order);
-            const still = stalledOf(final.last);
-            spheres.forEach((s, j) => {
-              if (!still[j] || coarseStalled[j]) return;
-              try { final.engine.initMesh(j, s.centre, s.radius, coarse[j]); } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; }
-            });
-          }
-        }
+          const order = spheres.map((_, j) => j).sort((a, b) => coarseVoxels[b] - coarseVoxels[a] || a - b);
+          final = await run(meshResolution, coarse.map((v) => [v]), order);
+          const still = stalledOf(final.last);
+          spheres.forEach((s, j) => {
+            if (!still[j] || coarseStalled[j]) return;
+            try { final.engine.initMesh(j, s.centre, s.radius, coarse[j]); } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; }
+          });
+        } else final = first;
       }
       out.masks = spheres.map((_, j) => final.engine.rasterize(j));
       out.meshes = spheres.map((_, j) => final.engine.extractMesh(j));

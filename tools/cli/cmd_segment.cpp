@@ -214,8 +214,8 @@ void read_inputs(SegmentRequest* rq, Inputs* in) {
 
 // Where an object's mesh started in the last engine (report.json:
 // objects[].started_from).
-constexpr uint8_t kStartSphere = 0, kStartFirstRun = 1, kStartFinerRun = 2;
-const char* start_name(uint8_t k) { return k == kStartFinerRun ? "finer run" : k == kStartFirstRun ? "first run" : "sphere"; }
+constexpr uint8_t kStartSphere = 0, kStartFirstRun = 1;
+const char* start_name(uint8_t k) { return k == kStartFirstRun ? "first run" : "sphere"; }
 
 // The engine's run: its workspace (the results are read from it), how it
 // went and how long it took.
@@ -231,8 +231,8 @@ struct EngineRun {
   bool converged = false;
   int64_t steps = 0;
   std::vector<uint32_t> border_vertices;  // at the last step each object moved
-  // Coarse to fine (automatic resolution): each object's first-run mesh
-  // (xyz, kFirstResolution) the finer run started from, and whether that
+  // Coarse to fine (a resolution above the first): each object's first-run
+  // mesh (xyz, kFirstResolution) the finer run starts from, and whether that
   // run stalled; stalled: each object's FFSEG_OBJECT_STALLED at the end, and
   // from_coarse: objects whose finer run stalled and that were put back on
   // their first-run surface instead.
@@ -240,19 +240,14 @@ struct EngineRun {
   std::vector<uint64_t> coarse_voxels;  // each first-run mesh's voxels
   std::vector<uint8_t> coarse_stalled, stalled, from_coarse;
   bool start_from_coarse = false;  // the next engine starts from `coarse`
-  // ... except the objects with a mesh in fine[k] (else empty): the finer
-  // run came to rest well for them, and the next engine starts them there.
-  std::vector<std::vector<float>> fine;
-  bool started_from_fine(uint32_t k) const { return start_from_coarse && k < fine.size() && !fine[k].empty(); }
-  // Each object of the finer run that stalled or ended smaller than at the
-  // first resolution, and where the last engine placed each object:
-  // kStartSphere, kStartFirstRun (its first-run mesh) or kStartFinerRun.
-  std::vector<uint8_t> fell_short, start;
+  // Where the last engine placed each object: kStartSphere or
+  // kStartFirstRun (its first-run mesh).
+  std::vector<uint8_t> start;
   std::vector<std::array<double, 3>> far;  // outward, inward, vertices: at each object's last moving step
   // Seconds: every pass's engine setup; the last pass's steps (as stage_us).
   double t_setup = 0, t_stepping = 0;
-  // Every pass's steps and stepping (the first run's, the finer run's and the
-  // one made again): what the whole segmentation cost, not only its last pass.
+  // Every pass's steps and stepping (the first run's and the finer run's):
+  // what the whole segmentation cost, not only its last pass.
   int64_t steps_all = 0;
   double t_stepping_all = 0;
   int passes = 0;
@@ -332,16 +327,12 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
 
   run->centres_mm.assign(rq.objects(), {});
   run->start.assign(rq.objects(), kStartSphere);
-  bool mixed = false;  // finer meshes beside first-run ones
-  for (uint32_t k = 0; k < rq.objects(); ++k) mixed = mixed || run->started_from_fine(k);
-  // Meshes of two runs may overlap, and the engine refuses the one placed
-  // second. The larger organs go first (by their first-run volume): where
-  // two overlap, the larger keeps its mesh and the smaller grows again (from
-  // its first-run mesh, else from its sphere) among neighbours already at
-  // rest. A large organ sent back to its sphere loses most: on the 1 mm CT
-  // the liver at n = 49 jams from it (16 organs together: liver 0.746 placed
-  // first, 0.586 when the vessels' finer meshes went first; BENCHMARKS.md
-  // section 12).
+  // The first run's meshes never overlap, but resampled to the finer
+  // resolution two that touch may, and the engine refuses the one placed
+  // second: the larger organs go first (by their first-run volume), so the
+  // smaller one grows again from its sphere. A large organ sent back to its
+  // sphere loses most: on the 1 mm CT the liver at n = 49 jams from it
+  // (BENCHMARKS.md section 7).
   std::vector<uint32_t> order(rq.objects());
   for (uint32_t k = 0; k < rq.objects(); ++k) order[k] = k;
   if (run->start_from_coarse && run->coarse_voxels.size() == rq.objects())
@@ -354,11 +345,7 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
     // Coarse to fine: the first run's mesh, resampled (its model still from
     // the sphere); a mesh the engine refuses starts from the sphere.
     st = FFSEG_ERR_INVALID_ARGUMENT;
-    if (run->started_from_fine(k) &&
-        (st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->fine[k].data(),
-                              run->fine[k].size() / 3)) == FFSEG_OK)
-      run->start[k] = kStartFinerRun;
-    if (st != FFSEG_OK && run->start_from_coarse &&
+    if (run->start_from_coarse &&
         (st = ffseg_init_mesh(ws.e, k, run->centres_mm[k].data(), s.c[3], run->coarse[k].data(),
                               run->coarse[k].size() / 3)) == FFSEG_OK)
       run->start[k] = kStartFirstRun;
@@ -366,18 +353,6 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
       std::fprintf(stderr, "ffseg: object %u (%s): the engine refused its first-run mesh (%s); it starts from "
                    "its sphere\n", k + 1, rq.names[k].c_str(), placement_message(rq, ffseg_last_error(ws.e)).c_str());
     if (st != FFSEG_OK) st = ffseg_init_sphere(ws.e, k, run->centres_mm[k].data(), s.c[3]);
-    // Meshes of two runs may touch where one run's never do, and a
-    // neighbour's finer mesh may even hold the sphere: then every object
-    // starts from its first-run mesh, as they all did before.
-    if (mixed && st != FFSEG_OK) {
-      if (!rq.quiet)
-        std::fprintf(stderr, "ffseg: object %u (%s): no start beside the finer meshes (%s); every object starts "
-                     "from its first-run mesh\n", k + 1, rq.names[k].c_str(),
-                     placement_message(rq, ffseg_last_error(ws.e)).c_str());
-      run->fine.clear();
-      start_engine(rq, img, run);
-      return;
-    }
     if (st == FFSEG_ERR_SPHERE_OUTSIDE || st == FFSEG_ERR_INVALID_ARGUMENT) {
       const std::string detail = placement_message(rq, ffseg_last_error(ws.e));
       fail(kExitUsage, "object " + std::to_string(k + 1) + " (" + s.text + "): " +
@@ -489,15 +464,18 @@ std::vector<uint64_t> object_voxels(const ffseg_engine* e, const ffseg_tools::Ni
 // kMeasureSteps steps, and the run is made again at a finer resolution when
 // they ask for one (mesh_resolution.h); else the first run goes on where it
 // stopped. A fixed resolution above kFirstResolution has the same first run,
-// to rest. The finer run starts from the spheres; when an object of it
-// stalls or ends smaller than its first-run mesh by more than
-// kShortOfFirstRun (a fine mesh jams on a scanner's grid: the 1 mm CT liver
-// at n = 49 stopped at 12% of it), the finer run is made again from the
-// first run's meshes (coarse to fine: ffseg_init_mesh), and an object that
-// still stalls where its first run did not is put back on its first-run
-// surface. Starting every finer run from the coarse meshes instead cost the
-// 3 mm CT's liver 0.863 -> 0.840 (its n = 12 mesh rests short of a lobe
-// that the n = 24 mesh from the sphere fills).
+// to rest. Coarse to fine: the finer run starts from the first run's meshes
+// (ffseg_init_mesh; the cube-sphere subdivides exactly), not from the
+// spheres, so a fine mesh never has to grow from a small sphere, where it
+// jams on a scanner's grid (the 1 mm CT liver at n = 49 stopped at 12% of
+// it), and the finer run costs the steps from the coarse surface on only. An
+// object that stalls in the finer run where its first run did not is put
+// back on its first-run surface. Growing the finer mesh from the sphere
+// first (the finer run made again from the coarse meshes only where it fell
+// short) was measured over seven placements of every sphere (BENCHMARKS.md
+// section 12): the same Dice at 3 mm alone and together within their
+// spread, 0.011 more on the 1 mm choosing set, at two to four times the
+// stepping.
 void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, EngineRun* run) {
   const bool automatic = rq.mesh_resolution == 0;
   const bool fixed_fine = !automatic && rq.mesh_resolution > kFirstResolution;
@@ -510,7 +488,6 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->coarse.clear();
   run->coarse_voxels.clear();
   run->start_from_coarse = false;
-  run->fine.clear();
   run->from_coarse.assign(nobj, 0);
   auto pass = [&](int64_t limit) {
     const auto t_setup0 = std::chrono::steady_clock::now();
@@ -549,36 +526,11 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->coarse_stalled = stalled_objects(*run, nobj);
   run->coarse_voxels = object_voxels(run->ws.e, img, nobj);
   if (!rq.quiet && fixed_fine)
-    std::fprintf(stderr, "ffseg: first run at mesh resolution %u; now at %u\n", kFirstResolution, fine);
+    std::fprintf(stderr, "ffseg: first run at mesh resolution %u; now at %u from its meshes\n", kFirstResolution, fine);
   else if (!rq.quiet)
-    std::fprintf(stderr, "ffseg: the surfaces ask for mesh resolution %u; segmenting again at it "
+    std::fprintf(stderr, "ffseg: the surfaces ask for mesh resolution %u; refining the first run's meshes to it "
                  "(--mesh-resolution N to fix one)\n", fine);
   run->resolution = fine;
-  pass(rq.max_steps);
-  run->stalled = stalled_objects(*run, nobj);
-  const std::vector<uint64_t> fine_voxels = object_voxels(run->ws.e, img, nobj);
-  std::string short_ones;  // "object 4 (gallbladder) stalled, object 7 (aorta) stopped short ..."
-  run->fine.assign(nobj, {});
-  run->fell_short.assign(nobj, 0);
-  for (uint32_t k = 0; k < nobj; ++k) {
-    if (run->stalled[k] || double(fine_voxels[k]) < (1 - kShortOfFirstRun) * double(run->coarse_voxels[k])) {
-      run->fell_short[k] = 1;
-      short_ones += std::string(short_ones.empty() ? "" : ", ") + "object " + std::to_string(k + 1) + " (" +
-                    rq.names[k] + ") " + (run->stalled[k] ? "stalled" : "stopped short of its first-run surface");
-      continue;
-    }
-    // Not short: the next pass starts it where this one left it.
-    run->fine[k] = mesh_vertices(run->ws.e, k);
-  }
-  if (short_ones.empty()) return;
-  if (!rq.quiet)
-    std::fprintf(stderr, "ffseg: %s at mesh resolution %u; refining the first run's meshes instead\n",
-                 short_ones.c_str(), fine);
-  // Started again from the first run's meshes: the objects that fell short.
-  // The others keep what the finer run gave them (their finer meshes, at
-  // rest): the 3 mm CT's liver from its sphere at n = 22-24 is better than
-  // refined from n = 12 (section 7), and one small organ's stall among nine
-  // took that from it (nine organs together: mean Dice 0.604 -> 0.641).
   run->start_from_coarse = true;
   pass(rq.max_steps);
   run->stalled = stalled_objects(*run, nobj);
@@ -591,7 +543,7 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
     run->stalled[k] = 0;
     run->from_coarse[k] = 1;
     if (!rq.quiet)
-      std::fprintf(stderr, "ffseg: object %u (%s) stalled at mesh resolution %u again; kept on its surface "
+      std::fprintf(stderr, "ffseg: object %u (%s) stalled at mesh resolution %u; kept on its surface "
                    "from resolution %u\n", k + 1, rq.names[k].c_str(), fine, kFirstResolution);
   }
 }
@@ -728,9 +680,7 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
     if (run.start_from_coarse) {
       o.set("kept_first_run_surface", run.from_coarse[k] != 0);
       o.set("first_run_voxels", run.coarse_voxels[k]);  // the order of placement: larger first
-      o.set("fell_short_at_finer_run", run.fell_short[k] != 0);
       o.set("started_from", start_name(run.start[k]));
-      o.set("started_from_finer_run", run.start[k] == kStartFinerRun);
     }
     if (nobj > 1) {
       if (k < FFSEG_REPORT_OBJECTS) o.set("border_vertices", r.border_vertices);  // ffseg_step_info's reach

@@ -5,7 +5,8 @@
 // resolution that gives its surface quads of about kEdgeVoxels voxel spacings
 // a side follows from its area A (6 n^2 quads): n = ceil(sqrt(A / 6) / h).
 // When the largest object asks for more than kRerunFactor times the first
-// resolution, the run is made again from the same spheres at that resolution;
+// resolution, the run is made again at that resolution from the first run's
+// meshes (coarse to fine, cmd_segment.cpp run_engine_once);
 // else the first run stands (and goes on to rest if it was measured before). Small structures (Colin27's deep nuclei, 8 ml)
 // ask for 13-15 and keep the first run, which is also among the best fixed
 // resolutions there (BENCHMARKS.md section 4, 2026-12-04: mean Dice 0.542 at
@@ -30,10 +31,6 @@ constexpr double kRerunFactor = 1.5;
 // its area at step 60 asks for 49 as at step 200). When it is kept, it
 // goes on stepping from there.
 constexpr int64_t kMeasureSteps = 60;
-// A finer run whose object ends with fewer voxels than its first run's by
-// more than this share stopped short of it: it is refined from the first
-// run's meshes instead (cmd_segment.cpp run_engine).
-constexpr double kShortOfFirstRun = 0.02;
 
 // Area (mm^2) of a triangle mesh: xyz 3 floats per vertex, tris 3 indices each.
 double mesh_area_mm2(const std::vector<float>& xyz, const std::vector<uint32_t>& tris);

@@ -1,8 +1,8 @@
 // The wasm build against the native tool on Colin27: the left putamen (AAL 73)
 // from its protocol sphere (--sphere-from-label), grey levels, n = 33, must give
 // the same mask voxel for voxel, by the same runs (the binding's segment()
-// makes them as the tool does: n = 12 first, then n = 33, then coarse to fine
-// when the finer run ends short). The tool is FFSEG_CLI (default build/ffseg).
+// makes them as the tool does: n = 12 first, then n = 33 from its mesh,
+// coarse to fine). The tool is FFSEG_CLI (default build/ffseg).
 "use strict";
 const test = require("node:test");
 const assert = require("node:assert");
@@ -36,7 +36,8 @@ test("the left putamen: the wasm build's mask is the native tool's, voxel for vo
   const mask = run.masks[0];
   t.diagnostic(`runs: ${run.runs.map((r) => `n = ${r.meshResolution} from the ${r.from}, ${r.steps} steps`).join("; ")}`);
 
-  assert.strictEqual(run.runs.length > 2, Boolean(report.config.refined_from_first_run), "made again from the first run's meshes");
+  assert.strictEqual(run.runs.length, report.passes, "the tool's runs");
+  assert.ok(report.config.refined_from_first_run && run.runs[1].from === "first run", "n = 33 from the first run's mesh");
   assert.strictEqual(run.steps, report.steps, "steps to rest");
   assert.strictEqual(run.meshes[0].vertices.length / 3, obj.vertices);
   let differ = 0, first = -1;
@@ -52,10 +53,9 @@ test("the left putamen: the wasm build's mask is the native tool's, voxel for vo
   assert.ok(rel < 1e-9, `final mean displacement wasm ${a} vs native ${b}`);
 });
 
-// Several objects made again from mixed starts: Colin27's eight deep nuclei
-// (AAL 71-78) at n = 33 fall short at the finer run for some of them, so the
-// run is made again with the others' finer meshes, the larger organs placed
-// first; the binding must place them as the tool does, in a new engine.
+// Several objects coarse to fine: Colin27's eight deep nuclei (AAL 71-78) at
+// n = 33 start from their n = 12 meshes, the larger organs placed first; the
+// binding must place them as the tool does, in a new engine.
 test("the eight deep nuclei at n = 33: the wasm build's label map is the native tool's, voxel for voxel", async (t) => {
   assert.ok(fs.existsSync(CLI), `${CLI} is missing (make build, or set FFSEG_CLI)`);
   const out = fs.mkdtempSync(path.join(os.tmpdir(), "ffseg-js-nuclei-"));
@@ -65,9 +65,9 @@ test("the eight deep nuclei at n = 33: the wasm build's label map is the native 
   for (const l of labels) args.push("--sphere-from-label", `${MRI}/aal.nii.gz:${l}`);
   execFileSync(CLI, args, { stdio: "pipe" });
   const report = JSON.parse(fs.readFileSync(path.join(out, "report.json"), "utf8"));
-  assert.ok(report.config.refined_from_first_run, "the case makes the run again");
+  assert.ok(report.config.refined_from_first_run, "the finer run starts from the first run's meshes");
   const starts = report.objects.map((o) => o.started_from);
-  assert.ok(starts.includes("finer run") && starts.includes("first run"), `mixed starts: ${starts}`);
+  assert.ok(starts.includes("first run"), `starts: ${starts}`);
   const native = await readNifti(path.join(out, "labels.nii.gz"));
 
   const img = await readNifti(`${MRI}/ch2.nii.gz`);

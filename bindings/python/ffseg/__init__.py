@@ -486,8 +486,8 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
     The defaults are the `ffseg segment` tool's (grey-level target, n = 33,
     200 steps, crop and region budgets from memory_bytes as its --memory,
     workspace_sizing()), and it makes the tool's runs for --mesh-resolution n
-    (above 12: a first run at 12, then n, then coarse to fine where an object
-    falls short; _segment_once), so the same inputs give the tool's masks
+    (above 12: a first run at 12, then n from its meshes, coarse to fine;
+    _segment_once), so the same inputs give the tool's masks
     voxel for voxel. memory_bytes is where the workspace starts: an object that outgrows
     the crop or region it gives makes the run start again with twice it (a
     RuntimeWarning says so); max_roi_voxels / max_region_voxels given are
@@ -521,23 +521,19 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
 
 
 # The tool's coarse to fine (tools/cli/cmd_segment.cpp, run_engine_once): a
-# resolution above FIRST_RESOLUTION first runs at it, and a finer object that
-# stalls or ends more than SHORT_OF_FIRST_RUN smaller is made again.
+# resolution above FIRST_RESOLUTION first runs at it, and the finer run
+# starts from its meshes.
 FIRST_RESOLUTION = 12
-SHORT_OF_FIRST_RUN = 0.02
 
 
 def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, sizes,
                   rescale_slope, rescale_intercept, return_meshes, params):
     """The runs `ffseg segment --mesh-resolution n` makes: at n = 12 and below
-    one run from the spheres; above it a first run at n = 12, then n from the
-    spheres, and when some object of that run stalls or ends more than 2%
-    smaller than at n = 12, the run made again: those objects from their
-    n = 12 meshes, the others from their finer ones (each else from its
-    n = 12 mesh, else its sphere), the larger organs placed first; an object
-    that still stalls where its first run did not is put back on its n = 12
-    surface. Each run in an engine of its own, sized by sizes(n) -> (max_roi_voxels,
-    max_region_voxels)."""
+    one run from the spheres; above it a first run at n = 12, then n from its
+    meshes (each else from its sphere, the larger organs placed first); an
+    object that stalls at n where its first run did not is put back on its
+    n = 12 surface. Each run in an engine of its own, sized by sizes(n) ->
+    (max_roi_voxels, max_region_voxels)."""
     k = len(spheres)
 
     def engine(n):
@@ -594,27 +590,18 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
         coarse = [first.extract_mesh(j)[0] for j in range(k)]
         coarse_stalled, coarse_voxels = stalled(first), voxels(first)
         first.close()
-        final = from_spheres(mesh_resolution)
-        fine_stalled, fine_voxels = stalled(final), voxels(final)
-        short = [fine_stalled[j] or fine_voxels[j] < (1 - SHORT_OF_FIRST_RUN) * coarse_voxels[j] for j in range(k)]
-        if any(short):
-            fine = [final.extract_mesh(j)[0] for j in range(k)]
-            final.close()
-            order = sorted(range(k), key=lambda j: -coarse_voxels[j])  # stable: ties in index order
-            starts = [[coarse[j]] if short[j] else [fine[j], coarse[j]] for j in range(k)]
-            e = placed(mesh_resolution, starts, order)
-            if e is None and not all(short):  # no start beside the finer meshes: all from the first run
-                e = placed(mesh_resolution, [[coarse[j]] for j in range(k)], order)
-            if e is None:
-                raise Error(-1, "no start for some object beside the others' meshes", "segment")
-            final = to_rest(e)
-            still = stalled(final)
-            for j, (centre, radius) in enumerate(spheres):
-                if still[j] and not coarse_stalled[j]:
-                    try:
-                        final.init_mesh(j, centre, radius, coarse[j])
-                    except Error:
-                        pass  # it touches a neighbour's finer mesh: the stalled one stays
+        order = sorted(range(k), key=lambda j: -coarse_voxels[j])  # stable: ties in index order
+        e = placed(mesh_resolution, [[coarse[j]] for j in range(k)], order)
+        if e is None:
+            raise Error(-1, "no start for some object beside the others' meshes", "segment")
+        final = to_rest(e)
+        still = stalled(final)
+        for j, (centre, radius) in enumerate(spheres):
+            if still[j] and not coarse_stalled[j]:
+                try:
+                    final.init_mesh(j, centre, radius, coarse[j])
+                except Error:
+                    pass  # it touches a neighbour's finer mesh: the stalled one stays
     with final as e:
         flags = getattr(e, "last_step_info", None)
         if flags is not None and flags.flags_all:

@@ -65,7 +65,7 @@ def test_liver_at_1mm_the_automatic_resolution_refines_n12_and_a_jam_is_never_co
         # Short of n = 12's liver only as a stall, warned about and exit 6,
         # never as convergence.
         assert reached or (o["stalled"] and r.returncode == 6 and "stalled" in r.stderr)
-        assert rep["config"]["refined_from_first_run"] is True  # from the sphere it stalls
+        assert rep["config"]["refined_from_first_run"] is True  # from its n = 12 mesh: from the sphere it jams
         assert not rep["converged"] or reached
 
 
@@ -83,7 +83,7 @@ def organ_3mm(organ, out):
 # model's contrast scale within Tukey's fences bought (0.06 and 21x its
 # volume before: a box with 6% air made the floor 44 HU wide); the leak
 # ceiling guards against its return.
-CHOOSING_3MM = {5: ("liver", 0.83), 1: ("spleen", 0.85), 3: ("kidney left", 0.80), 4: ("gallbladder", 0.32),
+CHOOSING_3MM = {5: ("liver", 0.82), 1: ("spleen", 0.85), 3: ("kidney left", 0.80), 4: ("gallbladder", 0.32),
                 7: ("aorta", 0.39), 102: ("iliopsoas left", 0.65), 96: ("gluteus medius left", 0.52)}
 
 
@@ -96,7 +96,7 @@ def test_choosing_set_at_3mm_holds_its_figures_and_the_gallbladder_stays_near_it
         assert d >= floor, name
         if organ == 4:
             assert ratio <= 6.0  # 4.6x measured; 21.5x before
-    assert sum(dice.values()) / len(dice) >= 0.63  # 0.646 measured
+    assert sum(dice.values()) / len(dice) >= 0.63  # 0.643 measured
 
 
 def test_liver_and_vena_cava_together_at_3mm_fig_6_5_share_no_voxel(tmp_path):
@@ -140,46 +140,46 @@ def together(tmp_path, name, ids):
 
 
 def placed_larger_first(rep):
-    """What report.json says of a run made again: where each object started,
-    and the larger organs (first-run volume) placed first, so that none is
-    sent back to its sphere while a smaller one kept its mesh where they
-    overlap. The largest keeps the mesh it asked for."""
+    """What report.json says of a finer run: each object started from its
+    first-run mesh, or from its sphere where the engine refused that mesh
+    beside a larger neighbour's (the larger organs, by first-run volume, are
+    placed first), so the largest always keeps its first-run mesh."""
     objs = rep["objects"]
+    assert rep["passes"] == 2
     for o in objs:
-        assert o["started_from_finer_run"] == (o["started_from"] == "finer run")
-        assert o["started_from"] in ("finer run", "first run", "sphere")
+        assert o["started_from"] in ("first run", "sphere")
+        assert "fell_short_at_finer_run" not in o
     largest = max(objs, key=lambda o: o["first_run_voxels"])
-    assert largest["started_from"] == ("first run" if largest["fell_short_at_finer_run"] else "finer run")
+    assert largest["started_from"] == "first run"
+    return sum(o["started_from"] == "first run" for o in objs)
 
 
-def test_nine_organs_together_keep_the_finer_run_where_it_came_to_rest(tmp_path):
-    """Coarse to fine with several objects: when one object falls short at
-    the finer resolution, the run starts again from the first run's meshes
-    for it only; the others keep their finer meshes. Before, every object
-    started again from n = 12 (mean Dice 0.604, liver 0.808, gallbladder
-    0.366); now 0.641, 0.820, 0.500 (BENCHMARKS section 12)."""
+def test_nine_organs_together_refine_their_first_run(tmp_path):
+    """Coarse to fine with several objects: the finer run starts from the
+    first run's meshes, the larger organs placed first. 0.604 from the
+    protocol spheres (0.641 when the finer run grew from the spheres first);
+    over seven placements of every sphere the two are equal (0.615 against
+    0.614, BENCHMARKS section 12), at 4.4 s of stepping in all against 6.8."""
     rep, dice = together(tmp_path, "nine", (5, 1, 3, 4, 7, 2, 6, 8, 10))
     assert rep["config"]["refined_from_first_run"] is True
-    kept = [o for o in rep["objects"] if o["started_from_finer_run"]]
-    assert kept and len(kept) < len(dice)
-    placed_larger_first(rep)
-    assert sum(dice) / len(dice) >= 0.625  # 0.641 measured (0.604 before)
-    assert dice[0] >= 0.812                # the liver: 0.820 (0.808 before)
+    assert placed_larger_first(rep) >= len(dice) - 2
+    assert sum(dice) / len(dice) >= 0.59  # 0.604 measured
+    assert dice[0] >= 0.79                # the liver: 0.808
 
 
 def test_sixteen_organs_together_place_the_larger_organs_first(tmp_path):
-    """All 16 organs of both sets in one engine (issue 30's "together"): in
-    the run made again the larger organs' meshes are placed first. Placed in
-    index order, the right kidney's first-run mesh sent the vena cava's finer
-    mesh back to its sphere; mean 0.642 then, 0.656 now (BENCHMARKS section
-    12), every organ's Dice alone 0.629 on average."""
+    """All 16 organs of both sets in one engine (issue 30's "together"): the
+    finer run places the larger organs' first-run meshes first. 0.633 from
+    the protocol spheres (0.640 against 0.637 over seven placements with the
+    finer run from the spheres first; BENCHMARKS section 12), every organ's
+    Dice alone 0.623 on average."""
     ids = (5, 1, 3, 4, 7, 102, 96, 2, 6, 8, 10, 104, 103, 97, 100, 101)
     rep, dice = together(tmp_path, "sixteen", ids)
     assert rep["config"]["refined_from_first_run"] is True
     placed_larger_first(rep)
-    assert sum(dice) / len(dice) >= 0.648  # 0.656 measured (0.642 in index order)
-    assert dice[0] >= 0.815                # the liver: 0.827 (0.826)
-    assert dice[3] >= 0.45                 # the gallbladder: 0.520 (0.338; alone 0.352)
+    assert sum(dice) / len(dice) >= 0.62  # 0.633 measured
+    assert dice[0] >= 0.80                # the liver: 0.810
+    assert dice[3] >= 0.30                # the gallbladder: 0.337 (alone 0.352)
 
 
 def test_an_organ_that_outgrows_the_memory_budget_is_segmented_with_more_not_refused(tmp_path):

@@ -60,11 +60,11 @@ def test_python_matches_the_cli_on_colin27(tmp_path):
 
 def test_python_makes_the_tools_runs_at_a_fine_resolution_eight_nuclei(tmp_path):
     """Above n = 12 segment() makes the tool's runs: a first run at n = 12,
-    then n from the spheres, then the run made again where some object fell
-    short, the others keeping their finer meshes, the larger organs placed
-    first. Colin27's eight deep nuclei at n = 33 take all three (mixed
-    starts), and the label map must be the tool's voxel for voxel; before,
-    segment() made the one run from the spheres at n = 33."""
+    then n from its meshes (coarse to fine), the larger organs placed first,
+    an object that stalls at n put back on its n = 12 surface. Colin27's eight
+    deep nuclei at n = 33 (eight neighbours whose resampled meshes may touch),
+    and the label map must be the tool's voxel for voxel; before, segment()
+    made one run from the spheres at n = 33."""
     need_mricron()
     import nibabel
     labels = [71, 72, 73, 74, 75, 76, 77, 78]
@@ -74,8 +74,8 @@ def test_python_makes_the_tools_runs_at_a_fine_resolution_eight_nuclei(tmp_path)
         args += ["--sphere-from-label", f"{MRI}/aal.nii.gz:{label}"]
     run_cli(*args)
     report = json.loads((out / "report.json").read_text())
-    assert report["passes"] == 3 and report["config"]["refined_from_first_run"]
-    assert {o["started_from"] for o in report["objects"]} >= {"finer run", "first run"}
+    assert report["passes"] == 2 and report["config"]["refined_from_first_run"]
+    assert "first run" in {o["started_from"] for o in report["objects"]}
 
     img = nibabel.load(f"{MRI}/ch2.nii.gz")
     raw = np.asarray(img.dataobj.get_unscaled())
