@@ -906,7 +906,7 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     const Run r = ffseg(s, "segment " + (s / "small.nii.gz") + " --target binary --sphere 4,27,12,4 --out " + (s / "a"));
     INFO("stderr: " << r.err);
     REQUIRE(r.code == 0);
-    CHECK(r.err.find("segmenting again") == std::string::npos);
+    CHECK(r.err.find("refining the first run") == std::string::npos);
     const Json rep = parse_json(slurp(s / "a/report.json"));
     const Json* cfg = rep.get("config");
     REQUIRE(cfg != nullptr);
@@ -920,7 +920,7 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     const Run r = ffseg(s, "segment " + (s / "large.nii.gz") + " --target binary --sphere 16,16,16,4 --out " + (s / "b"));
     INFO("stderr: " << r.err);
     REQUIRE(r.code == 0);
-    CHECK(r.err.find("segmenting again at it") != std::string::npos);
+    CHECK(r.err.find("refining the first run's meshes to it") != std::string::npos);
     const Json rep = parse_json(slurp(s / "b/report.json"));
     const Json* cfg = rep.get("config");
     REQUIRE(cfg != nullptr);
@@ -948,7 +948,7 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     INFO("stderr: " << r.err);
     REQUIRE(r.code == 0);
     REQUIRE(f.code == 0);
-    CHECK(r.err.find("segmenting again") == std::string::npos);
+    CHECK(r.err.find("refining the first run") == std::string::npos);
     const Json rd = parse_json(slurp(s / "d/report.json"));
     const Json re = parse_json(slurp(s / "e/report.json"));
     CHECK(rd.get("steps")->as_number() > 60);  // else this case does not measure before rest
