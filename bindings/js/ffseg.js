@@ -429,7 +429,8 @@
      * runs at n = 12 to rest, then at n from the n = 12 meshes (coarse to
      * fine, initMesh), the larger organs (n = 12 voxels) placed first so that
      * where two resampled meshes overlap the larger keeps its own and the
-     * other starts from its sphere; an object that stalls at n where its
+     * other is tried scaled about its centroid, else from its sphere; an
+     * object that stalls at n where its
      * first run did not is put back on its n = 12 surface.
      *   volume:  { voxels, dims, affine, sclSlope, sclInter } (nifti.read's)
      *   spheres: [{ centre: [x, y, z] mm, radius mm }]
@@ -446,6 +447,19 @@
     async function segment(volume, spheres, { meshResolution = 33, maxSteps = 200, targetMode = "intensity", maxRoiVoxels,
       maxRegionVoxels, engines = new Map(), onStep, shouldStop } = {}) {
       const FIRST = 12, STALLED = 4;
+      // A refused first-run mesh is tried again scaled about its centroid
+      // (the tool's kFirstRunScales and scaled_about_centroid, to the bit:
+      // the mean summed in order in double, each coordinate rounded once).
+      const FIRST_RUN_SCALES = [1.0, 0.99, 0.98, 0.95];
+      const scaledAboutCentroid = (v, f) => {
+        if (f === 1.0) return v;
+        const n = v.length / 3, c = [0, 0, 0];
+        for (let i = 0; i < n; ++i) for (let a = 0; a < 3; ++a) c[a] += v[3 * i + a];
+        for (let a = 0; a < 3; ++a) c[a] /= n;
+        const w = new Float32Array(v.length);
+        for (let i = 0; i < n; ++i) for (let a = 0; a < 3; ++a) w[3 * i + a] = c[a] + f * (v[3 * i + a] - c[a]);
+        return w;
+      };
       const count = volume.dims[0] * volume.dims[1] * volume.dims[2];
       const k = spheres.length;
       const roi = maxRoiVoxels === undefined ? Math.min(count, 2 ** 26) : maxRoiVoxels;
@@ -509,7 +523,7 @@
         const coarseStalled = stalledOf(first.last), coarseVoxels = voxelsOf(first.engine);
         if (!out.stopped) {
           const order = spheres.map((_, j) => j).sort((a, b) => coarseVoxels[b] - coarseVoxels[a] || a - b);
-          final = await run(meshResolution, coarse.map((v) => [v]), order);
+          final = await run(meshResolution, coarse.map((v) => FIRST_RUN_SCALES.map((f) => scaledAboutCentroid(v, f))), order);
           const still = stalledOf(final.last);
           spheres.forEach((s, j) => {
             if (!still[j] || coarseStalled[j]) return;

@@ -522,15 +522,33 @@ def segment(array, affine, spheres, target_mode="intensity", mesh_resolution=33,
 
 # The tool's coarse to fine (tools/cli/cmd_segment.cpp, run_engine_once): a
 # resolution above FIRST_RESOLUTION first runs at it, and the finer run
-# starts from its meshes.
+# starts from its meshes, a refused one tried again scaled about its centroid
+# by FIRST_RUN_SCALES before its sphere.
 FIRST_RESOLUTION = 12
+FIRST_RUN_SCALES = (1.0, 0.99, 0.98, 0.95)
+
+
+def _scaled_about_centroid(xyz, f):
+    """The tool's scaled_about_centroid(), to the bit: the vertices' mean
+    summed in order in double, each coordinate rounded to float32 once."""
+    v = _np.asarray(xyz, _np.float32).reshape(-1, 3)
+    if f == 1.0:
+        return v
+    c = [0.0, 0.0, 0.0]
+    for x, y, z in v.tolist():
+        c[0] += x
+        c[1] += y
+        c[2] += z
+    c = _np.array(c) / len(v)
+    return (c + f * (v.astype(_np.float64) - c)).astype(_np.float32)
 
 
 def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, sizes,
                   rescale_slope, rescale_intercept, return_meshes, params):
     """The runs `ffseg segment --mesh-resolution n` makes: at n = 12 and below
     one run from the spheres; above it a first run at n = 12, then n from its
-    meshes (each else from its sphere, the larger organs placed first); an
+    meshes (a refused one scaled about its centroid, else from its sphere,
+    the larger organs placed first); an
     object that stalls at n where its first run did not is put back on its
     n = 12 surface. Each run in an engine of its own, sized by sizes(n) ->
     (max_roi_voxels, max_region_voxels)."""
@@ -591,7 +609,8 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
         coarse_stalled, coarse_voxels = stalled(first), voxels(first)
         first.close()
         order = sorted(range(k), key=lambda j: -coarse_voxels[j])  # stable: ties in index order
-        e = placed(mesh_resolution, [[coarse[j]] for j in range(k)], order)
+        e = placed(mesh_resolution, [[_scaled_about_centroid(coarse[j], f) for f in FIRST_RUN_SCALES]
+                                     for j in range(k)], order)
         if e is None:
             raise Error(-1, "no start for some object beside the others' meshes", "segment")
         final = to_rest(e)

@@ -156,15 +156,18 @@ def placed_larger_first(rep):
 
 def test_nine_organs_together_refine_their_first_run(tmp_path):
     """Coarse to fine with several objects: the finer run starts from the
-    first run's meshes, the larger organs placed first. 0.604 from the
-    protocol spheres (0.641 when the finer run grew from the spheres first);
-    over seven placements of every sphere the two are equal (0.615 against
-    0.614, BENCHMARKS section 12), at 4.4 s of stepping in all against 6.8."""
+    first run's meshes, the larger organs placed first, the vena cava's
+    (which crosses the gallbladder's once resampled) scaled by 0.99. 0.617
+    from the protocol spheres (0.641 when the finer run grew from the
+    spheres first, 0.604 with the vena cava from its sphere); over seven
+    placements of every sphere 0.620 against 0.614 and 0.615 (BENCHMARKS
+    section 12), at 3.5 s of stepping in all against 6.8."""
     rep, dice = together(tmp_path, "nine", (5, 1, 3, 4, 7, 2, 6, 8, 10))
     assert rep["config"]["refined_from_first_run"] is True
-    assert placed_larger_first(rep) >= len(dice) - 2
-    assert sum(dice) / len(dice) >= 0.59  # 0.604 measured
-    assert dice[0] >= 0.79                # the liver: 0.808
+    assert placed_larger_first(rep) == len(dice)
+    assert sum(dice) / len(dice) >= 0.60  # 0.617 measured
+    assert dice[0] >= 0.79                # the liver: 0.807
+    assert dice[7] >= 0.55                # the vena cava: 0.614 (0.527 from its sphere)
 
 
 def test_sixteen_organs_together_place_the_larger_organs_first(tmp_path):
@@ -223,3 +226,39 @@ def test_python_segment_starts_again_with_more_memory_as_the_tool_does():
     with pytest.raises(ffseg.Error) as ex:
         ffseg.segment(ct, img.affine, [sphere], mesh_resolution=12, max_roi_voxels=2000)
     assert ex.value.name == "ROI_TOO_LARGE"
+
+
+def test_python_segment_places_a_refused_first_run_mesh_scaled_as_the_tool_does(tmp_path):
+    """The nine organs at n = 22: resampled from n = 12, the vena cava's
+    first-run mesh crosses the gallbladder's by a fraction of a voxel, and
+    both the tool and segment() place it scaled by 0.99 about its centroid
+    (report.json: first_run_scale) instead of from its sphere. segment()
+    must give the tool's label map voxel for voxel, so its scaling is the
+    tool's to the bit."""
+    nib = pytest.importorskip("nibabel")
+    import numpy as np
+    import ffseg
+    ids = (5, 1, 3, 4, 7, 2, 6, 8, 10)
+    lab = os.path.join(abdomen_ct.DATA, "labels.nii.gz")
+    out = str(tmp_path / "nine22")
+    args = ["segment", os.path.join(abdomen_ct.DATA, "ct.nii.gz"), "--mesh-resolution", "22", "--out", out, "--quiet"]
+    for i in ids:
+        args += ["--sphere-from-label", f"{lab}:{i}"]
+    r = run_cli(*args, check=False)
+    assert r.returncode in (0, 6), r.stderr
+    rep = json.load(open(os.path.join(out, "report.json")))
+    scales = [o.get("first_run_scale") for o in rep["objects"]]
+    assert all(o["started_from"] == "first run" for o in rep["objects"])
+    assert any(s is not None and s < 1 for s in scales), scales  # the vena cava: 0.99
+
+    img = nib.load(os.path.join(abdomen_ct.DATA, "ct.nii.gz"))
+    raw = np.asarray(img.dataobj.get_unscaled())
+    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
+    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    spheres = [(o["sphere"]["center_mm"], o["sphere"]["radius_mm"]) for o in rep["objects"]]
+    masks = ffseg.segment(raw, img.affine, spheres, mesh_resolution=22, rescale_slope=slope, rescale_intercept=inter)
+    cli = np.asarray(nib.load(os.path.join(out, "labels.nii.gz")).dataobj)
+    mine = np.zeros(cli.shape, cli.dtype)
+    for label, m in reversed(list(zip(ids, masks))):  # a voxel inside two meshes: the first object's
+        mine[m != 0] = label
+    assert int((mine != cli).sum()) == 0
