@@ -356,12 +356,12 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
   run->centres_mm.assign(rq.objects(), {});
   run->start.assign(rq.objects(), kStartSphere);
   run->first_run_scale.assign(rq.objects(), 1.0);
-  // The first run's meshes never overlap, but resampled to the finer
-  // resolution two that touch may, and the engine refuses the one placed
-  // second: the larger organs go first (by their first-run volume), so the
-  // smaller one grows again from its sphere. A large organ sent back to its
-  // sphere loses most: on the 1 mm CT the liver at n = 49 jams from it
-  // (BENCHMARKS.md section 7).
+  // Resampled to the finer resolution, two first-run meshes that touch may
+  // overlap (kFirstRunScales), and the engine refuses the one placed second:
+  // the larger organs go first (by their first-run volume), so that the
+  // smaller one is the one scaled, or sent back to its sphere. A large organ
+  // sent back to its sphere loses most: on the 1 mm CT the liver at n = 49
+  // jams from it (BENCHMARKS.md section 7).
   std::vector<uint32_t> order(rq.objects());
   for (uint32_t k = 0; k < rq.objects(); ++k) order[k] = k;
   if (run->start_from_coarse && run->coarse_voxels.size() == rq.objects())
@@ -372,7 +372,8 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
     run->centres_mm[k] =
         s.voxel ? voxel_to_world(img.index_to_world, s.c) : std::array<double, 3>{s.c[0], s.c[1], s.c[2]};
     // Coarse to fine: the first run's mesh, resampled (its model still from
-    // the sphere); a mesh the engine refuses starts from the sphere.
+    // the sphere), scaled about its centroid where the engine refuses it,
+    // else the sphere.
     st = FFSEG_ERR_INVALID_ARGUMENT;
     std::string refused;  // the engine's reason for the unscaled mesh
     for (const double f : kFirstRunScales) {
