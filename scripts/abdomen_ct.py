@@ -115,15 +115,26 @@ def segment(cli, data_dir, organ, name, out, resolution, params=(), sphere=None)
 JITTER_DIRECTIONS = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
 
 
+def moved_sphere(sphere, j):
+    """sphere (x, y, z, r) moved by r / 2 along JITTER_DIRECTIONS[j]."""
+    x, y, z, r = sphere
+    d = JITTER_DIRECTIONS[j]
+    return (x + d[0] * r / 2, y + d[1] * r / 2, z + d[2] * r / 2, r)
+
+
+def below_alone(name, together, alone):
+    """Issue 30's chapter 6 criterion: "name -0.0xx" when an organ's Dice
+    together is below its Dice alone - 0.01, else None."""
+    return f"{name} {together - alone:+.3f}" if alone is not None and together < alone - 0.01 else None
+
+
 def jittered(cli, data_dir, organ, name, work, resolution, params, sphere, k):
     """Dice from the first k moved spheres, two runs at a time."""
     from concurrent.futures import ThreadPoolExecutor
-    x, y, z, r = sphere
 
     def one(j):
-        d = JITTER_DIRECTIONS[j]
-        moved = (x + d[0] * r / 2, y + d[1] * r / 2, z + d[2] * r / 2, r)
-        res = segment(cli, data_dir, organ, name, os.path.join(work, f"jitter{j}"), resolution, params, moved)
+        res = segment(cli, data_dir, organ, name, os.path.join(work, f"jitter{j}"), resolution, params,
+                      moved_sphere(sphere, j))
         return res.get("dice", 0.0)
 
     with ThreadPoolExecutor(max_workers=2) as pool:
@@ -190,8 +201,6 @@ def main():
         print("| organ (id) | set | Dice | ASSD mm | HD95 mm | ml / label ml | steps (all passes) | "
               "stepping s (all passes) | n | stalled |" + jit_head)
         print("|---|---|---|---|---|---|---|---|---|---|" + ("---|" if args.jitter else ""))
-        per_set = {"choosing": [], "reporting": []}
-        per_set_jit = {"choosing": [], "reporting": []}
         alone = {}  # organ -> its Dice alone, for the together table
         sphere_of = {}  # organ -> its protocol sphere, for --jitter together
         alone_jit = {}  # organ -> its mean Dice alone over the moved spheres
@@ -201,29 +210,27 @@ def main():
             if "error" in r:
                 print(f"| {name} ({organ}) | {which} | {r['error']} |")
                 continue
-            per_set[which].append(r["dice"])
             alone[organ] = r["dice"]
             sphere_of[organ] = r["sphere"]
             jit = ""
             if args.jitter:
                 d = [r["dice"]] + jittered(args.cli, data_dir, organ, name, out, args.resolution, args.param,
                                            r["sphere"], args.jitter)
-                per_set_jit[which].append(np.mean(d))
                 alone_jit[organ] = np.mean(d)
                 jit = f" {np.mean(d):.3f} ({min(d):.3f}-{max(d):.3f}) |"
             print(f"| {name} ({organ}) | {which} | {r['dice']:.3f} | {r['assd']:.2f} | {r['hd95']:.1f} | "
                   f"{r['ml']:.0f} / {r['label_ml']:.0f} | {r['steps']} ({r['steps_all']}) | "
                   f"{r['stepping_s']:.2f} ({r['stepping_all_s']:.2f}) | {r['n']} | "
                   f"{'yes' if r['stalled'] else 'no'} |" + jit, flush=True)
-        for which, d in per_set.items():
+        def set_means(which_sets, label):
+            d = [alone[o] for o, _, w in organs if w in which_sets and o in alone]
             if d:
-                print(f"mean Dice, {which} set: {np.mean(d):.3f} over {len(d)}"
-                      + (f"; over the moved spheres too: {np.mean(per_set_jit[which]):.3f}" if args.jitter else ""))
-        both = per_set["choosing"] + per_set["reporting"]
-        if both:
-            both_jit = per_set_jit["choosing"] + per_set_jit["reporting"]
-            print(f"mean Dice, both sets: {np.mean(both):.3f} over {len(both)}"
-                  + (f"; over the moved spheres too: {np.mean(both_jit):.3f}" if args.jitter else ""))
+                dj = [alone_jit[o] for o, _, w in organs if w in which_sets and o in alone_jit]
+                print(f"mean Dice, {label}: {np.mean(d):.3f} over {len(d)}"
+                      + (f"; over the moved spheres too: {np.mean(dj):.3f}" if dj else ""))
+        for which in ("choosing", "reporting"):
+            set_means((which,), f"{which} set")
+        set_means(("choosing", "reporting"), "both sets")
         if args.together:
             res, rep = segment_together(args.cli, data_dir, organs, os.path.join(args.work, f"together_{sp}mm"), args.param)
             all_s = rep["time_ms"].get("stepping_all_passes", rep["time_ms"]["stepping"]) / 1000
@@ -239,21 +246,19 @@ def main():
             for (organ, name, which), r in zip(organs, res):
                 a = alone.get(organ)
                 diff = "" if a is None else f"{r['dice'] - a:+.3f}"
-                if a is not None and r["dice"] < a - 0.01:
-                    below.append(f"{name} {r['dice'] - a:+.3f}")
+                below.append(below_alone(name, r["dice"], a))
                 print(f"| {name} ({organ}) | {which} | {r['dice']:.3f} | {'' if a is None else f'{a:.3f}'} | {diff} | "
                       f"{r['ml']:.0f} / {r['label_ml']:.0f} | {'yes' if r['stalled'] else 'no'} |")
             together_mean = np.mean([r["dice"] for r in res])
             print(f"mean Dice together: {together_mean:.3f}"
                   + (f" (alone {np.mean(list(alone.values())):.3f})" if len(alone) == len(res) else ""))
+            below = [b for b in below if b]
             print("below alone - 0.01: " + (", ".join(below) if below else "none"))
             if args.jitter and len(sphere_of) == len(organs):
                 means = [together_mean]
                 per_organ = [[r["dice"]] for r in res]
                 for j in range(args.jitter):
-                    d = JITTER_DIRECTIONS[j]
-                    moved = [[x + d[0] * r / 2, y + d[1] * r / 2, z + d[2] * r / 2, r]
-                             for x, y, z, r in (sphere_of[o] for o, _, _ in organs)]
+                    moved = [moved_sphere(sphere_of[o], j) for o, _, _ in organs]
                     rj, _ = segment_together(args.cli, data_dir, organs,
                                              os.path.join(args.work, f"together_{sp}mm_jitter{j}"), args.param, moved)
                     means.append(np.mean([x["dice"] for x in rj]))
@@ -268,10 +273,10 @@ def main():
                 below = []
                 for (organ, name, _), d in zip(organs, per_organ):
                     t, a = np.mean(d), alone_jit.get(organ)
-                    if a is not None and t < a - 0.01:
-                        below.append(f"{name} {t - a:+.3f}")
+                    below.append(below_alone(name, t, a))
                     print(f"| {name} ({organ}) | {t:.3f} | {'' if a is None else f'{a:.3f}'} | "
                           f"{'' if a is None else f'{t - a:+.3f}'} |")
+                below = [b for b in below if b]
                 print("below alone - 0.01 over the placements: " + (", ".join(below) if below else "none"))
 
 

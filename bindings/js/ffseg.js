@@ -460,6 +460,8 @@
         for (let i = 0; i < n; ++i) for (let a = 0; a < 3; ++a) w[3 * i + a] = c[a] + f * (v[3 * i + a] - c[a]);
         return w;
       };
+      // Each scale computed only when the one before was refused.
+      function* scaledStarts(v) { for (const f of FIRST_RUN_SCALES) yield scaledAboutCentroid(v, f); }
       const count = volume.dims[0] * volume.dims[1] * volume.dims[2];
       const k = spheres.length;
       const roi = maxRoiVoxels === undefined ? Math.min(count, 2 ** 26) : maxRoiVoxels;
@@ -523,7 +525,7 @@
         const coarseStalled = stalledOf(first.last), coarseVoxels = voxelsOf(first.engine);
         if (!out.stopped) {
           const order = spheres.map((_, j) => j).sort((a, b) => coarseVoxels[b] - coarseVoxels[a] || a - b);
-          final = await run(meshResolution, coarse.map((v) => FIRST_RUN_SCALES.map((f) => scaledAboutCentroid(v, f))), order);
+          final = await run(meshResolution, coarse.map(scaledStarts), order);
           const still = stalledOf(final.last);
           spheres.forEach((s, j) => {
             if (!still[j] || coarseStalled[j]) return;

@@ -609,8 +609,9 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
         coarse_stalled, coarse_voxels = stalled(first), voxels(first)
         first.close()
         order = sorted(range(k), key=lambda j: -coarse_voxels[j])  # stable: ties in index order
-        e = placed(mesh_resolution, [[_scaled_about_centroid(coarse[j], f) for f in FIRST_RUN_SCALES]
-                                     for j in range(k)], order)
+        def scaled(v):  # each scale computed only when the one before was refused
+            return (_scaled_about_centroid(v, f) for f in FIRST_RUN_SCALES)
+        e = placed(mesh_resolution, [scaled(coarse[j]) for j in range(k)], order)
         if e is None:
             raise Error(-1, "no start for some object beside the others' meshes", "segment")
         final = to_rest(e)
