@@ -129,6 +129,21 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     lat = BoxLattice::with_step(lo, hi, lat.step + 1);
     c = chosen_inside(lat);
   }
+  // The noise the floor reads (header note): the decorrelated estimate where
+  // the grid oversamples the noise, at most the sphere's own robust spread in
+  // the raw volume (noise is part of that spread), at least the lag-1 one.
+  double noise = roi.noise_sigma();
+  if (raw && roi.decorrelated_noise_sigma() > noise) {
+    uint32_t nr = 0;
+    lat.for_each([&](int64_t i, int64_t j, int64_t k) {
+      if (nr < cap_ && inside(i, j, k) && finite_raw(i, j, k)) samples_[nr++] = float(raw->at(i, j, k));
+    });
+    if (nr >= 4) {
+      std::sort(samples_, samples_ + nr);
+      auto q = [&](double f) { return double(samples_[uint32_t(f * double(nr - 1) + 0.5)]); };
+      noise = std::max(noise, std::min(roi.decorrelated_noise_sigma(), (q(0.75) - q(0.25)) / 1.349));
+    }
+  }
   uint32_t n = 0;
   lat.for_each([&](int64_t i, int64_t j, int64_t k) {
     if (n < cap_ && inside(i, j, k) && finite_raw(i, j, k)) samples_[n++] = roi.at(i, j, k);
@@ -147,7 +162,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     say(msg, msg_len, "intensity model: sigma_floor_fraction must be >= 0");
     return ModelStatus::bad_settings;
   }
-  const double floor = std::sqrt(roi.noise_sigma() * roi.noise_sigma() + rho * range * rho * range);
+  const double floor = std::sqrt(noise * noise + rho * range * rho * range);
   if (!std::isfinite(floor)) {
     say(msg, msg_len, "intensity model: the region's noise or intensity range is not finite (grey levels beyond float range)");
     return ModelStatus::not_finite;

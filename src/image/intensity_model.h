@@ -20,7 +20,12 @@
 // sphere's own variance would stop the mesh almost at once. Every component's
 // variance is floored at
 //   sigma_floor^2 = sigma_n^2 + (rho * D)^2
-// with sigma_n the crop's robust noise estimate (SmoothedRoi::noise_sigma), D the
+// with sigma_n the crop's robust noise estimate (SmoothedRoi::noise_sigma; on a
+// grid that oversamples its noise, a volume resampled finer than it was
+// acquired, the estimate at the lag where the noise has decorrelated,
+// SmoothedRoi::decorrelated_noise_sigma, capped by the sphere's robust spread
+// in the raw volume: the noise is part of that spread, and a template's
+// anatomy read as noise must not widen the floor past it), D the
 // crop's robust intensity range p99 - p1 (the contrast scale of the scene)
 // taken within Tukey's far-out fences (Q1 - 3 IQR .. Q3 + 3 IQR of the box):
 // a CT box that holds a few percent of air or lung has p1 at -1000 HU, and

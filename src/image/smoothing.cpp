@@ -199,7 +199,7 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
   if (s.statistics || !(s.kappa > 0) || !integer_copy_applies(vol)) {
     estimate_noise(vol);
   } else {  // not needed: kappa is given and no voxel can be non-finite
-    sigma_n_ = p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
+    sigma_n_ = sigma_d_ = p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
     fence_lo_ = -INFINITY;
     fence_hi_ = INFINITY;
   }
@@ -267,7 +267,7 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
     p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
     fence_lo_ = -INFINITY;
     fence_hi_ = INFINITY;
-    sigma_n_ = 0;
+    sigma_n_ = sigma_d_ = 0;
     return;
   }
   p_lo_ = nth_of(vals, ns, int64_t(std::floor(0.01 * double(ns - 1))));
@@ -307,6 +307,64 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
     if (best < 0 || sa < best) best = sa;
   }
   sigma_n_ = best < 0 ? 0 : best;
+  sigma_d_ = decorrelated_noise(vol, lat);
+}
+
+// The noise at the lag where it has decorrelated (smoothing.h). At lag L
+// along axis a, over the lattice voxels x_i (their neighbours at +-L inside
+// the statistics box):
+//   s_a(L)   = 1.4826 median|x_{i+-L} - x_i| / sqrt(2)       (the lag-1 scale at lag L)
+//   rho_a(L) = (m_A^2 - m_B^2) / (m_A^2 + m_B^2),  m_A = median|x_{i+L} - x_{i-L}|,
+//              m_B = median|x_{i+L} - 2 x_i + x_{i-L}|
+// rho_a(L) is Gnanadesikan and Kettenring's robust correlation of the two
+// increments x_{i+L} - x_i and x_i - x_{i-L} (their sum and difference are
+// the lag-2L and second differences).
+double SmoothedRoi::decorrelated_noise(const VolumeView& vol, const BoxLattice& lat) {
+  const int64_t cap = kNoisePoints;
+  float* cd = scratch_;            // both sides' |x_{i+-L} - x_i|: 2 cap
+  float* ad = scratch_ + 2 * cap;  // |x_{i+L} - x_{i-L}|: cap
+  float* bd = scratch_ + 3 * cap;  // |x_{i+L} - 2 x_i + x_{i-L}|: cap
+  for (int64_t L = 1; L <= kMaxNoiseLag; ++L) {
+    double rho[3];
+    int nr = 0;
+    double best = -1;
+    for (int a = 0; a < 3; ++a) {
+      int64_t nc = 0, nab = 0;
+      lat.for_each([&](int64_t i, int64_t j, int64_t k) {
+        const double x = vol.at(i, j, k);
+        if (!std::isfinite(x)) return;
+        int64_t q[3] = {i, j, k}, r[3] = {i, j, k};
+        q[a] += L;
+        r[a] -= L;
+        const bool hq = q[a] < shi_[a], hr = r[a] >= slo_[a];
+        const double xq = hq ? vol.at(q[0], q[1], q[2]) : 0, xr = hr ? vol.at(r[0], r[1], r[2]) : 0;
+        const bool fq = hq && std::isfinite(xq), fr = hr && std::isfinite(xr);
+        if (fq) cd[nc++] = float(std::fabs(xq - x));
+        if (fr) cd[nc++] = float(std::fabs(xr - x));
+        if (fq && fr) {
+          ad[nab] = float(std::fabs(xq - xr));
+          bd[nab] = float(std::fabs(xq + xr - 2 * x));
+          ++nab;
+        }
+      });
+      if (nc >= 16) {
+        const double sa = 1.4826 * double(nth_of(cd, nc, nc / 2)) / std::sqrt(2.0);
+        if (best < 0 || sa < best) best = sa;
+      }
+      if (nab >= 16) {
+        const double ma = nth_of(ad, nab, nab / 2), mb = nth_of(bd, nab, nab / 2);
+        const double den = ma * ma + mb * mb;
+        rho[nr++] = den > 0 ? (ma * ma - mb * mb) / den : -0.5;  // a flat box: nothing to decorrelate
+      }
+    }
+    if (best < 0 || nr == 0) break;  // the box holds no more pairs at this lag
+    for (int u = 1; u < nr; ++u)  // at most three: insertion sort
+      for (int v = u; v > 0 && rho[v] < rho[v - 1]; --v) std::swap(rho[v], rho[v - 1]);
+    const double med = nr % 2 ? rho[nr / 2] : 0.5 * (rho[nr / 2 - 1] + rho[nr / 2]);
+    if (L == 1 && med < kOversampledRho) break;  // the lag-1 differences see the noise
+    if (med <= 0) return best;
+  }
+  return sigma_n_;
 }
 
 namespace {

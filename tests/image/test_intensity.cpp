@@ -270,6 +270,88 @@ TEST_CASE("smoothing: a crop over max_voxels fails and names the size it needs")
   CHECK(bare.compute(v.view, lo, tiny_hi, none) == RoiStatus::too_large);  // max_voxels 0
 }
 
+namespace {
+
+// Robust spread (IQR / 1.349) of x.
+double robust_sd(std::vector<double> x) {
+  std::sort(x.begin(), x.end());
+  auto q = [&](double f) { return x[size_t(f * double(x.size() - 1) + 0.5)]; };
+  return (q(0.75) - q(0.25)) / 1.349;
+}
+
+}  // namespace
+
+TEST_CASE("smoothing, intensity: noise resampled onto a finer grid is measured where it decorrelates") {
+  // White noise (sd 10 about 50) on a 3 mm grid, and the same scan
+  // trilinearly resampled to 1 mm (the shared CT's 1 mm grid is made so).
+  const int64_t nc = 22, nf = 3 * (nc - 1) + 1;
+  Rng rng(11);
+  std::vector<double> coarse(size_t(nc * nc * nc));
+  for (double& x : coarse) x = 50 + 10 * rng.normal();
+  auto c_at = [&](int64_t i, int64_t j, int64_t k) { return coarse[size_t(i + nc * (j + nc * k))]; };
+  TestVolume<float> c3(nc, nc, nc, 3, 3, 3), f1(nf, nf, nf, 1, 1, 1);
+  for (int64_t k = 0; k < nc; ++k)
+    for (int64_t j = 0; j < nc; ++j)
+      for (int64_t i = 0; i < nc; ++i) c3.at(i, j, k) = float(c_at(i, j, k));
+  std::vector<double> fine;
+  for (int64_t k = 0; k < nf; ++k)
+    for (int64_t j = 0; j < nf; ++j)
+      for (int64_t i = 0; i < nf; ++i) {
+        const int64_t p[3] = {i, j, k};
+        int64_t b[3];
+        double t[3];
+        for (int a = 0; a < 3; ++a) {
+          b[a] = std::min<int64_t>(p[a] / 3, nc - 2);
+          t[a] = double(p[a] - 3 * b[a]) / 3;
+        }
+        double v = 0;
+        for (int c = 0; c < 8; ++c) {
+          double w = 1;
+          int64_t q[3];
+          for (int a = 0; a < 3; ++a) {
+            const int bit = (c >> a) & 1;
+            w *= bit ? t[a] : 1 - t[a];
+            q[a] = b[a] + bit;
+          }
+          v += w * c_at(q[0], q[1], q[2]);
+        }
+        f1.at(i, j, k) = float(v);
+        fine.push_back(v);
+      }
+  c3.finish(VoxelType::F32);
+  f1.finish(VoxelType::F32);
+  SmoothedRoi roi;
+  Carved mem([&](Arena& a) { roi.carve(a, nf * nf * nf, kCpu); });
+  REQUIRE(mem.ok);
+  IntensityModel model;
+  Carved mm([&](Arena& a) { model.carve(a, 65536, kCpu); });
+  REQUIRE(mm.ok);
+
+  // The scan's own grid: the lag-1 differences see the noise, and the
+  // decorrelated estimate is theirs.
+  const int64_t lo[3] = {0, 0, 0}, hic[3] = {nc, nc, nc}, hif[3] = {nf, nf, nf};
+  REQUIRE(roi.compute(c3.view, lo, hic, SmoothingSettings()) == RoiStatus::ok);
+  CHECK(roi.noise_sigma() == doctest::Approx(10).epsilon(0.15));
+  CHECK(roi.decorrelated_noise_sigma() == roi.noise_sigma());
+
+  // Resampled: the lag-1 differences read a fraction of the field's spread;
+  // the decorrelated estimate is of its order, and the floor reads it.
+  REQUIRE(roi.compute(f1.view, lo, hif, SmoothingSettings()) == RoiStatus::ok);
+  const double spread = robust_sd(fine);  // about 6: the weights' average of the noise
+  CAPTURE(spread);
+  CAPTURE(roi.noise_sigma());
+  CAPTURE(roi.decorrelated_noise_sigma());
+  CHECK(roi.noise_sigma() < 0.5 * spread);
+  CHECK(roi.decorrelated_noise_sigma() > 0.7 * spread);
+  CHECK(roi.decorrelated_noise_sigma() < 1.5 * spread);
+  const double c[3] = {31, 31, 31};
+  REQUIRE(model.fit(roi, c, 12, IntensityModelSettings(), nullptr, 0, &f1.view) == ModelStatus::ok);
+  CHECK(model.sigma_floor() > 0.7 * spread);
+  // Without the raw volume the sphere's spread is unknown: the lag-1 noise.
+  REQUIRE(model.fit(roi, c, 12, IntensityModelSettings()) == ModelStatus::ok);
+  CHECK(model.sigma_floor() < 0.5 * spread + 0.04 * (roi.contrast_high() - roi.contrast_low()));
+}
+
 TEST_CASE("smoothing, intensity: non-finite voxels neither spread nor reach the model") {
   TestVolume<float> v = edge_volume(0, 5);
   v.at(10, 10, 5) = NAN;

@@ -47,7 +47,7 @@ def test_liver_at_1mm_the_automatic_resolution_refines_n12_and_a_jam_is_never_co
     r12, rep12, o12 = liver(grid_1mm, str(tmp_path / "n12"), 12)
     d12, v12 = o12["metrics"]["dice"], o12["voxels"]
     assert r12.returncode == 0 and not o12["stalled"]
-    assert d12 >= 0.70  # 0.715 measured
+    assert d12 >= 0.68  # 0.697 measured (0.715 before the model read the decorrelated noise: BENCHMARKS 12)
 
     ra, repa, oa = liver(grid_1mm, str(tmp_path / "auto"), "auto")
     assert ra.returncode == 0, ra.stderr
@@ -55,7 +55,7 @@ def test_liver_at_1mm_the_automatic_resolution_refines_n12_and_a_jam_is_never_co
     assert repa["config"]["refined_from_first_run"] is True
     assert not oa["stalled"] and repa["stalled_objects"] == 0
     assert oa["voxels"] >= 0.98 * v12
-    assert oa["metrics"]["dice"] >= d12 - 0.01  # 0.749 against 0.715 measured
+    assert oa["metrics"]["dice"] >= d12 - 0.01  # 0.750 against 0.697 measured
 
     for n in (24, 33, 49):
         r, rep, o = liver(grid_1mm, str(tmp_path / f"n{n}"), n)
