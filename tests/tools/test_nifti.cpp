@@ -3,6 +3,7 @@
 
 #include "support/gzip_bytes.h"
 
+#include "byte_io.h"
 #include "nifti.h"
 
 #include <zlib.h>
@@ -570,6 +571,31 @@ TEST_CASE("nifti: gzip bomb is refused without allocating it") {
     std::string err;
     CHECK_FALSE(read_mem(out, &r, &err));
     CHECK(err.find("decompression bound") != std::string::npos);
+}
+
+TEST_CASE("nifti: a gzip volume over a known compressed size is read into one buffer") {
+    // 3 MiB of pseudo-random int16 voxels (they deflate about 1:1): the
+    // buffer starts at 4x the compressed bytes, so it is never regrown (from
+    // 1 MB it grew to 2 and 4 MiB, copying and zero-filling each time).
+    NiftiImage img = make_image(kNiftiVoxI16, 128, 128, 96);
+    uint64_t state = 12345;
+    for (size_t i = 0; i < img.data.size(); ++i) {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        img.data[i] = uint8_t(state >> 56);
+    }
+    const Bytes gz = encode(img, true);
+    const NiftiImage r = read_ok(gz);
+    CHECK(r.data == img.data);
+    CHECK(r.data.size() > (size_t(1) << 20));
+    CHECK(r.data.capacity() == r.data.size());
+    // Over memory the compressed size is known as well.
+    ffseg_tools::io::MemSource mem(gz.data(), gz.size());
+    ffseg_tools::io::GzipSource unz(mem);
+    std::string err;
+    REQUIRE(unz.init(&err));
+    uint64_t left = 0;
+    REQUIRE(unz.compressed_remaining(&left));
+    CHECK(left == gz.size());
 }
 
 TEST_CASE("nifti: writer errors and atomic writes") {

@@ -50,6 +50,9 @@ public:
     // regular file); lets the reader refuse a truncated file before it
     // allocates the voxel buffer.
     virtual bool remaining(uint64_t*) const { return false; }
+    // Compressed bytes left, if known (a gzip stream over a regular file or
+    // memory): what the reader may size a first buffer by.
+    virtual bool compressed_remaining(uint64_t*) const { return false; }
 };
 
 class MemSource final : public Source {
@@ -143,6 +146,11 @@ public:
         return true;
     }
     void set_limit(uint64_t limit) { limit_ = limit; }
+    bool compressed_remaining(uint64_t* r) const override {
+        if (!in_.remaining(r)) return false;
+        *r += zs_.avail_in;
+        return true;
+    }
     uint64_t produced() const { return produced_; }
 
     bool read(uint8_t* dst, size_t n, size_t* got, std::string* err) override {

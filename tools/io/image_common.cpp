@@ -54,11 +54,19 @@ bool read_voxels(Source& src, const ScalarType& t, bool big_endian, const int di
                              t.name, (unsigned long long)lim.max_bytes));
     const uint64_t need = n * uint64_t(t.file_bytes);
     uint64_t left = 0;
-    if (src.remaining(&left) && left < need)
+    const bool known = src.remaining(&left);
+    if (known && left < need)
         return fail(err, fmt("%s is too short: %llu bytes of voxels expected, %llu present", what.c_str(),
                              (unsigned long long)need, (unsigned long long)left));
     std::vector<uint8_t> raw;
     const size_t chunk = size_t(1) << 22;
+    // One buffer for the whole volume where its size is vouched for (the
+    // bytes are there) or likely (4x the compressed bytes left: volumes
+    // deflate 2-5 to 1, as in the NIfTI reader); else it grows as data
+    // arrives, so a lying header cannot make it allocate ahead of the data.
+    uint64_t packed = 0;
+    if (known) raw.reserve(size_t(need));
+    else if (src.compressed_remaining(&packed)) raw.reserve(size_t(std::min<uint64_t>(need, std::max<uint64_t>(chunk, 4 * packed))));
     while (raw.size() < need) {
         const size_t want = size_t(std::min<uint64_t>(chunk, need - raw.size()));
         const size_t at = raw.size();
