@@ -431,7 +431,8 @@
      * where two resampled meshes overlap the larger keeps its own and the
      * other is tried scaled about its centroid, else from its sphere; an
      * object that stalls at n where its
-     * first run did not is put back on its n = 12 surface.
+     * first run did not is put back on its n = 12 surface, and where that is
+     * refused the first run goes on at 12 from its meshes instead.
      *   volume:  { voxels, dims, affine, sclSlope, sclInter } (nifti.read's)
      *   spheres: [{ centre: [x, y, z] mm, radius mm }]
      *   options: meshResolution (33), maxSteps per run (200), targetMode
@@ -527,10 +528,16 @@
           const order = spheres.map((_, j) => j).sort((a, b) => coarseVoxels[b] - coarseVoxels[a] || a - b);
           final = await run(meshResolution, coarse.map(scaledStarts), order);
           const still = stalledOf(final.last);
+          let lost = false;
           spheres.forEach((s, j) => {
             if (!still[j] || coarseStalled[j]) return;
-            try { final.engine.initMesh(j, s.centre, s.radius, coarse[j]); } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; }
+            try { final.engine.initMesh(j, s.centre, s.radius, coarse[j]); } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; lost = true; }
           });
+          // One cannot be put back on its first-run surface at n (resampled
+          // there it crosses itself, or meets a neighbour's finer mesh): as
+          // the tool, the finer run is given up and the first run goes on at
+          // its own resolution from its meshes.
+          if (lost && !out.stopped) final = await run(FIRST, coarse.map(scaledStarts), order);
         } else final = first;
       }
       out.masks = spheres.map((_, j) => final.engine.rasterize(j));

@@ -267,6 +267,8 @@ struct EngineRun {
   std::vector<uint64_t> coarse_voxels;  // each first-run mesh's voxels
   std::vector<uint8_t> coarse_stalled, stalled, from_coarse;
   bool start_from_coarse = false;  // the next engine starts from `coarse`
+  // The finer run was given up for the first run's resolution (run_engine_once).
+  bool finer_given_up = false;
   // Where the last engine placed each object: kStartSphere or
   // kStartFirstRun (its first-run mesh, scaled by first_run_scale).
   std::vector<uint8_t> start;
@@ -529,6 +531,7 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->coarse.clear();
   run->coarse_voxels.clear();
   run->start_from_coarse = false;
+  run->finer_given_up = false;
   run->from_coarse.assign(nobj, 0);
   auto pass = [&](int64_t limit) {
     const auto t_setup0 = std::chrono::steady_clock::now();
@@ -575,18 +578,44 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->start_from_coarse = true;
   pass(rq.max_steps);
   run->stalled = stalled_objects(*run, nobj);
+  uint32_t lost = nobj;  // an object that cannot be put back
+  std::string why;
   for (uint32_t k = 0; k < nobj; ++k) {
     if (!run->stalled[k] || run->coarse_stalled[k]) continue;
     const SphereArg& sp = rq.spheres[k];
     if (ffseg_init_mesh(run->ws.e, k, run->centres_mm[k].data(), sp.c[3], run->coarse[k].data(),
-                        run->coarse[k].size() / 3) != FFSEG_OK)
-      continue;  // it touches a neighbour's finer mesh: the stalled one stays
+                        run->coarse[k].size() / 3) != FFSEG_OK) {
+      if (lost == nobj) {
+        lost = k;
+        why = placement_message(rq, ffseg_last_error(run->ws.e));
+      }
+      continue;
+    }
     run->stalled[k] = 0;
     run->from_coarse[k] = 1;
     if (!rq.quiet)
       std::fprintf(stderr, "ffseg: object %u (%s) stalled at mesh resolution %u; kept on its surface "
                    "from resolution %u\n", k + 1, rq.names[k].c_str(), fine, kFirstResolution);
   }
+  // An object that stalled where its first run did not and cannot be put
+  // back on its first-run surface at the finer resolution would end short of
+  // its first run: its surface resampled there crosses itself (the chords of
+  // a finer mesh cut across a tight fold of the coarse one: the 1 mm CT's
+  // gluteus medius right at n = 38, which then grew from its sphere, jammed
+  // and ended at 109 ml against the first run's 125), or it meets a
+  // neighbour's finer mesh. The finer run is then given up: the first run
+  // goes on to rest at its own resolution, every object placed from its
+  // first-run mesh (the same grid: bit for bit), so that no object ends
+  // short of its first run.
+  if (lost == nobj) return;
+  std::fprintf(stderr, "ffseg: warning: object %u (%s) stalled at mesh resolution %u and cannot be put back on its "
+               "surface from resolution %u there (%s); the first run goes on at resolution %u instead\n",
+               lost + 1, rq.names[lost].c_str(), fine, kFirstResolution, why.c_str(), kFirstResolution);
+  run->resolution = kFirstResolution;
+  run->finer_given_up = true;
+  pass(rq.max_steps);
+  run->stalled = stalled_objects(*run, nobj);
+  run->from_coarse.assign(nobj, 1);
 }
 
 // The run, from the start again with twice the memory budget each time an
@@ -790,7 +819,9 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
   const bool automatic = rq.mesh_resolution == 0;
   cj.set("mesh_resolution_source", automatic ? "automatic" : "--mesh-resolution");
   // Coarse to fine: grown at kFirstResolution, then refined at this one.
-  cj.set("refined_from_first_run", run.start_from_coarse);
+  cj.set("refined_from_first_run", run.start_from_coarse && !run.finer_given_up);
+  // The finer run was made and given up for the first run's resolution.
+  if (run.start_from_coarse) cj.set("finer_run_given_up", run.finer_given_up);
   if (automatic) {
     // The first run's resolution and what its surfaces asked for (mesh_resolution.h).
     cj.set("first_mesh_resolution", kFirstResolution);

@@ -550,7 +550,8 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
     meshes (a refused one scaled about its centroid, else from its sphere,
     the larger organs placed first); an
     object that stalls at n where its first run did not is put back on its
-    n = 12 surface. Each run in an engine of its own, sized by sizes(n) ->
+    n = 12 surface, and where that is refused the first run goes on at 12
+    from its meshes instead. Each run in an engine of its own, sized by sizes(n) ->
     (max_roi_voxels, max_region_voxels)."""
     k = len(spheres)
 
@@ -616,12 +617,26 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
             raise Error(-1, "no start for some object beside the others' meshes", "segment")
         final = to_rest(e)
         still = stalled(final)
+        lost = None
         for j, (centre, radius) in enumerate(spheres):
             if still[j] and not coarse_stalled[j]:
                 try:
                     final.init_mesh(j, centre, radius, coarse[j])
-                except Error:
-                    pass  # it touches a neighbour's finer mesh: the stalled one stays
+                except Error as ex:
+                    lost = (j, ex.message) if lost is None else lost
+        if lost is not None:
+            # It cannot be put back on its first-run surface at n (the
+            # surface resampled there crosses itself, or meets a neighbour's
+            # finer mesh): as the tool, the finer run is given up and the
+            # first run goes on at its own resolution from its meshes.
+            final.close()
+            _warnings.warn(f"ffseg.segment: object {lost[0]} stalled at mesh resolution {mesh_resolution} and cannot "
+                           f"be put back on its first-run surface there ({lost[1]}); the first run goes on at "
+                           f"resolution {FIRST_RESOLUTION} instead", RuntimeWarning, stacklevel=3)
+            e = placed(FIRST_RESOLUTION, [scaled(coarse[j]) for j in range(k)], order)
+            if e is None:
+                raise Error(-1, "no start for some object beside the others' first-run meshes", "segment")
+            final = to_rest(e)
     with final as e:
         flags = getattr(e, "last_step_info", None)
         if flags is not None and flags.flags_all:

@@ -262,3 +262,40 @@ def test_python_segment_places_a_refused_first_run_mesh_scaled_as_the_tool_does(
     for label, m in reversed(list(zip(ids, masks))):  # a voxel inside two meshes: the first object's
         mine[m != 0] = label
     assert int((mine != cli).sum()) == 0
+
+
+def test_a_first_run_surface_the_finer_mesh_cannot_carry_is_kept_by_the_tool_and_python(grid_1mm, tmp_path):
+    """The gluteus medius right (97) on the 1 mm grid: its n = 12 surface,
+    resampled to the n = 38 its area asks for, crosses itself (the finer
+    chords cut across a tight fold), so its finer run grows from the sphere,
+    jams and stalls short of the first run, and it cannot be put back on its
+    first-run surface at 38 either. The finer run is given up and the first
+    run goes on at 12: no stall, no fewer voxels than the first run (before:
+    109,342 against 124,775, stalled, exit 6). segment() makes the same runs,
+    voxel for voxel."""
+    nib = pytest.importorskip("nibabel")
+    import numpy as np
+    import ffseg
+    lab = os.path.join(grid_1mm, "labels.nii.gz")
+    out = str(tmp_path / "g97")
+    r = run_cli("segment", os.path.join(grid_1mm, "ct.nii.gz"), "--sphere-from-label", f"{lab}:97",
+                "--mesh-resolution", "38", "--out", out, "--quiet", check=False)
+    assert r.returncode == 0, r.stderr
+    assert "cannot be put back on its surface from resolution 12" in r.stderr  # warned even with --quiet
+    rep = json.load(open(os.path.join(out, "report.json")))
+    o = rep["objects"][0]
+    assert rep["config"]["finer_run_given_up"] is True and rep["config"]["refined_from_first_run"] is False
+    assert rep["config"]["mesh_resolution"] == 12 and rep["passes"] == 3
+    assert not o["stalled"] and o["kept_first_run_surface"]
+    assert o["voxels"] >= 0.98 * o["first_run_voxels"]
+
+    img = nib.load(os.path.join(grid_1mm, "ct.nii.gz"))
+    raw = np.asarray(img.dataobj.get_unscaled())
+    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
+    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    sphere = (o["sphere"]["center_mm"], o["sphere"]["radius_mm"])
+    with pytest.warns(RuntimeWarning, match="first run goes on at resolution 12"):
+        masks = ffseg.segment(raw, img.affine, [sphere], mesh_resolution=38, rescale_slope=slope,
+                              rescale_intercept=inter)
+    cli = np.asarray(nib.load(os.path.join(out, "labels.nii.gz")).dataobj) != 0
+    assert int(((masks[0] != 0) != cli).sum()) == 0
