@@ -262,7 +262,8 @@ struct EngineRun {
   // mesh (xyz, kFirstResolution) the finer run starts from, and whether that
   // run stalled; stalled: each object's FFSEG_OBJECT_STALLED at the end, and
   // from_coarse: objects whose finer run stalled and that were put back on
-  // their first-run surface instead.
+  // their first-run surface instead (every object when the finer run was
+  // given up: finer_given_up).
   std::vector<std::vector<float>> coarse;
   std::vector<uint64_t> coarse_voxels;  // each first-run mesh's voxels
   std::vector<uint8_t> coarse_stalled, stalled, from_coarse;
@@ -513,7 +514,8 @@ std::vector<uint64_t> object_voxels(const ffseg_engine* e, const ffseg_tools::Ni
 // jams on a scanner's grid (the 1 mm CT liver at n = 49 stopped at 12% of
 // it), and the finer run costs the steps from the coarse surface on only. An
 // object that stalls in the finer run where its first run did not is put
-// back on its first-run surface. Growing the finer mesh from the sphere
+// back on its first-run surface, and where that is refused the finer run is
+// given up for the first run, gone on at its own resolution. Growing the finer mesh from the sphere
 // first (the finer run made again from the coarse meshes only where it fell
 // short) was measured over seven placements of every sphere (BENCHMARKS.md
 // section 12): the same Dice at 3 mm alone and together within their
