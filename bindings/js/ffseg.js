@@ -526,18 +526,27 @@
         const coarseStalled = stalledOf(first.last), coarseVoxels = voxelsOf(first.engine);
         if (!out.stopped) {
           const order = spheres.map((_, j) => j).sort((a, b) => coarseVoxels[b] - coarseVoxels[a] || a - b);
-          final = await run(meshResolution, coarse.map(scaledStarts), order);
-          const still = stalledOf(final.last);
           let lost = false;
-          spheres.forEach((s, j) => {
-            if (!still[j] || coarseStalled[j]) return;
-            try { final.engine.initMesh(j, s.centre, s.radius, coarse[j]); } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; lost = true; }
-          });
-          // One cannot be put back on its first-run surface at n (resampled
-          // there it crosses itself, or meets a neighbour's finer mesh): as
-          // the tool, the finer run is given up and the first run goes on at
-          // its own resolution from its meshes.
+          try {
+            final = await run(meshResolution, coarse.map(scaledStarts), order);
+          } catch (ex) {  // an object placed neither from its first-run mesh nor from its sphere
+            if (!(ex instanceof FfsegError)) throw ex;
+            lost = true;
+          }
+          if (!lost) {
+            const still = stalledOf(final.last);
+            spheres.forEach((s, j) => {
+              if (!still[j] || coarseStalled[j]) return;
+              try { final.engine.initMesh(j, s.centre, s.radius, coarse[j]); } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; lost = true; }
+            });
+          }
+          // One cannot be placed at n, or cannot be put back on its
+          // first-run surface there after a stall (resampled it crosses
+          // itself, or meets a neighbour's finer mesh): as the tool, the
+          // finer run is given up and the first run goes on at its own
+          // resolution from its meshes.
           if (lost && !out.stopped) final = await run(FIRST, coarse.map(scaledStarts), order);
+          else if (lost) final = first;
         } else final = first;
       }
       out.masks = spheres.map((_, j) => final.engine.rasterize(j));

@@ -289,6 +289,14 @@ struct EngineRun {
   int budget_raises = 0;
 };
 
+// Coarse to fine: an object the finer engine refuses from its first-run mesh
+// (scaled too) and from its sphere, the others' finer meshes being in the
+// way (run_engine_once gives the finer run up).
+struct NoFinerStart {
+  uint32_t object;
+  std::string detail;
+};
+
 // An organ outgrew the crop or region the memory budget gave it
 // (FFSEG_ERR_ROI_TOO_LARGE with sizes the budget chose): run_engine starts
 // the run again with a larger budget.
@@ -397,6 +405,8 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
       std::fprintf(stderr, "ffseg: object %u (%s): the engine refused its first-run mesh (%s), scaled too; it "
                    "starts from its sphere\n", k + 1, rq.names[k].c_str(), refused.c_str());
     if (st != FFSEG_OK) st = ffseg_init_sphere(ws.e, k, run->centres_mm[k].data(), s.c[3]);
+    if (st == FFSEG_ERR_INVALID_ARGUMENT && run->start_from_coarse && run->resolution != kFirstResolution)
+      throw NoFinerStart{k, placement_message(rq, ffseg_last_error(ws.e))};
     if (st == FFSEG_ERR_SPHERE_OUTSIDE || st == FFSEG_ERR_INVALID_ARGUMENT) {
       const std::string detail = placement_message(rq, ffseg_last_error(ws.e));
       fail(kExitUsage, "object " + std::to_string(k + 1) + " (" + s.text + "): " +
@@ -578,7 +588,29 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
                  "(--mesh-resolution N to fix one)\n", fine);
   run->resolution = fine;
   run->start_from_coarse = true;
-  pass(rq.max_steps);
+  // The finer run given up: the first run goes on to rest at its own
+  // resolution, every object placed from its first-run mesh (the same grid:
+  // bit for bit), so that no object ends short of its first run.
+  auto give_up = [&](const std::string& why) {
+    std::fprintf(stderr, "ffseg: warning: %s; the first run goes on at resolution %u instead\n", why.c_str(),
+                 kFirstResolution);
+    run->resolution = kFirstResolution;
+    run->finer_given_up = true;
+    pass(rq.max_steps);
+    run->stalled = stalled_objects(*run, nobj);
+    run->from_coarse.assign(nobj, 1);
+  };
+  try {
+    pass(rq.max_steps);
+  } catch (const NoFinerStart& no) {
+    // Its sphere lies where a neighbour's finer mesh now stands (its own
+    // first-run surface moved off it): a usage error once, after the first
+    // run's work.
+    give_up("object " + std::to_string(no.object + 1) + " (" + rq.names[no.object] + ") cannot be placed at mesh " +
+            "resolution " + std::to_string(fine) + " beside the others' meshes, from its first-run surface or its " +
+            "sphere (" + no.detail + ")");
+    return;
+  }
   run->stalled = stalled_objects(*run, nobj);
   uint32_t lost = nobj;  // an object that cannot be put back
   std::string why;
@@ -605,19 +637,11 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   // a finer mesh cut across a tight fold of the coarse one: the 1 mm CT's
   // gluteus medius right at n = 38, which then grew from its sphere, jammed
   // and ended at 109 ml against the first run's 125), or it meets a
-  // neighbour's finer mesh. The finer run is then given up: the first run
-  // goes on to rest at its own resolution, every object placed from its
-  // first-run mesh (the same grid: bit for bit), so that no object ends
-  // short of its first run.
+  // neighbour's finer mesh. The finer run is then given up.
   if (lost == nobj) return;
-  std::fprintf(stderr, "ffseg: warning: object %u (%s) stalled at mesh resolution %u and cannot be put back on its "
-               "surface from resolution %u there (%s); the first run goes on at resolution %u instead\n",
-               lost + 1, rq.names[lost].c_str(), fine, kFirstResolution, why.c_str(), kFirstResolution);
-  run->resolution = kFirstResolution;
-  run->finer_given_up = true;
-  pass(rq.max_steps);
-  run->stalled = stalled_objects(*run, nobj);
-  run->from_coarse.assign(nobj, 1);
+  give_up("object " + std::to_string(lost + 1) + " (" + rq.names[lost] + ") stalled at mesh resolution " +
+          std::to_string(fine) + " and cannot be put back on its surface from resolution " +
+          std::to_string(kFirstResolution) + " there (" + why + ")");
 }
 
 // The run, from the start again with twice the memory budget each time an

@@ -613,26 +613,27 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
         def scaled(v):  # each scale computed only when the one before was refused
             return (_scaled_about_centroid(v, f) for f in FIRST_RUN_SCALES)
         e = placed(mesh_resolution, [scaled(coarse[j]) for j in range(k)], order)
-        if e is None:
-            raise Error(-1, "no start for some object beside the others' meshes", "segment")
-        final = to_rest(e)
-        still = stalled(final)
         lost = None
-        for j, (centre, radius) in enumerate(spheres):
-            if still[j] and not coarse_stalled[j]:
-                try:
-                    final.init_mesh(j, centre, radius, coarse[j])
-                except Error as ex:
-                    lost = (j, ex.message) if lost is None else lost
+        if e is None:  # some object: neither its first-run mesh nor its sphere beside the others' meshes
+            lost = f"some object cannot be placed at mesh resolution {mesh_resolution} beside the others' meshes"
+        else:
+            final = to_rest(e)
+            still = stalled(final)
+            for j, (centre, radius) in enumerate(spheres):
+                if still[j] and not coarse_stalled[j]:
+                    try:
+                        final.init_mesh(j, centre, radius, coarse[j])
+                    except Error as ex:
+                        if lost is None:
+                            lost = (f"object {j} stalled at mesh resolution {mesh_resolution} and cannot be put "
+                                    f"back on its first-run surface there ({ex.message})")
+            if lost is not None:
+                final.close()
         if lost is not None:
-            # It cannot be put back on its first-run surface at n (the
-            # surface resampled there crosses itself, or meets a neighbour's
-            # finer mesh): as the tool, the finer run is given up and the
-            # first run goes on at its own resolution from its meshes.
-            final.close()
-            _warnings.warn(f"ffseg.segment: object {lost[0]} stalled at mesh resolution {mesh_resolution} and cannot "
-                           f"be put back on its first-run surface there ({lost[1]}); the first run goes on at "
-                           f"resolution {FIRST_RESOLUTION} instead", RuntimeWarning, stacklevel=3)
+            # As the tool: the finer run is given up and the first run goes
+            # on at its own resolution from its meshes.
+            _warnings.warn(f"ffseg.segment: {lost}; the first run goes on at resolution {FIRST_RESOLUTION} instead",
+                           RuntimeWarning, stacklevel=3)
             e = placed(FIRST_RESOLUTION, [scaled(coarse[j]) for j in range(k)], order)
             if e is None:
                 raise Error(-1, "no start for some object beside the others' first-run meshes", "segment")
