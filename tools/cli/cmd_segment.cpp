@@ -525,12 +525,12 @@ std::vector<uint64_t> object_voxels(const ffseg_engine* e, const ffseg_tools::Ni
 // it), and the finer run costs the steps from the coarse surface on only. An
 // object that stalls in the finer run where its first run did not is put
 // back on its first-run surface, and where that is refused the finer run is
-// given up for the first run, gone on at its own resolution. Growing the finer mesh from the sphere
-// first (the finer run made again from the coarse meshes only where it fell
-// short) was measured over seven placements of every sphere (BENCHMARKS.md
-// section 12): the same Dice at 3 mm alone and together within their
-// spread, 0.011 more on the 1 mm choosing set, at two to four times the
-// stepping.
+// given up for the first run, gone on at its own resolution. Growing the
+// finer mesh from the sphere first (the finer run made again from the coarse
+// meshes only where it fell short) was measured over seven placements of
+// every sphere (BENCHMARKS.md section 12): the same Dice at 3 mm alone and
+// together within their spread, 0.011 more on the 1 mm choosing set, at two
+// to four times the stepping.
 void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, EngineRun* run) {
   const bool automatic = rq.mesh_resolution == 0;
   const bool fixed_fine = !automatic && rq.mesh_resolution > kFirstResolution;
@@ -604,8 +604,7 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
     pass(rq.max_steps);
   } catch (const NoFinerStart& no) {
     // Its sphere lies where a neighbour's finer mesh now stands (its own
-    // first-run surface moved off it): a usage error once, after the first
-    // run's work.
+    // first-run surface moved off it); the first run's work still holds.
     give_up("object " + std::to_string(no.object + 1) + " (" + rq.names[no.object] + ") cannot be placed at mesh " +
             "resolution " + std::to_string(fine) + " beside the others' meshes, from its first-run surface or its " +
             "sphere (" + no.detail + ")");
