@@ -247,21 +247,10 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
   const int64_t cap = kNoisePoints;
   int64_t ns = 0;
   float* vals = scratch_;
-  float* dif[3] = {scratch_ + cap, scratch_ + 3 * cap, scratch_ + 5 * cap};
-  int64_t nd[3] = {0, 0, 0};
   lat.for_each([&](int64_t i, int64_t j, int64_t k) {
     const double x = vol.at(i, j, k);
     if (!std::isfinite(x) || ns >= cap) return;  // non-finite voxels take no part in the statistics
     vals[ns++] = float(x);
-    const int64_t p[3] = {i, j, k};
-    for (int a = 0; a < 3; ++a)
-      for (int side = -1; side <= 1; side += 2) {
-        int64_t q[3] = {p[0], p[1], p[2]};
-        q[a] += side;
-        if (q[a] < slo_[a] || q[a] >= shi_[a]) continue;
-        const double d = std::fabs(vol.at(q[0], q[1], q[2]) - x);
-        if (std::isfinite(d)) dif[a][nd[a]++] = float(d);
-      }
   });
   if (ns == 0) {
     p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
@@ -299,27 +288,19 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
       c_hi_ = nth_of(vals, nk, int64_t(std::ceil(0.99 * double(nk - 1))));
     }
   }
-  double best = -1;
-  for (int a = 0; a < 3; ++a) {
-    if (nd[a] < 16) continue;
-    const double med = nth_of(dif[a], nd[a], nd[a] / 2);
-    const double sa = 1.4826 * med / std::sqrt(2.0);
-    if (best < 0 || sa < best) best = sa;
-  }
-  sigma_n_ = best < 0 ? 0 : best;
-  sigma_d_ = decorrelated_noise(vol, lat);
+  noise_scales(vol, lat);
 }
 
-// The noise at the lag where it has decorrelated (smoothing.h). At lag L
-// along axis a, over the lattice voxels x_i (their neighbours at +-L inside
-// the statistics box):
-//   s_a(L)   = 1.4826 median|x_{i+-L} - x_i| / sqrt(2)       (the lag-1 scale at lag L)
+// sigma_n_ (lag 1) and sigma_d_, the noise at the lag where it has
+// decorrelated (smoothing.h). At lag L along axis a, over the lattice voxels
+// x_i (their neighbours at +-L inside the statistics box):
+//   s_a(L)   = 1.4826 median|x_{i+-L} - x_i| / sqrt(2)       (at L = 1: sigma_n_, the smallest over the axes)
 //   rho_a(L) = (m_A^2 - m_B^2) / (m_A^2 + m_B^2),  m_A = median|x_{i+L} - x_{i-L}|,
 //              m_B = median|x_{i+L} - 2 x_i + x_{i-L}|
 // rho_a(L) is Gnanadesikan and Kettenring's robust correlation of the two
 // increments x_{i+L} - x_i and x_i - x_{i-L} (their sum and difference are
 // the lag-2L and second differences).
-double SmoothedRoi::decorrelated_noise(const VolumeView& vol, const BoxLattice& lat) {
+void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
   const int64_t cap = kNoisePoints;
   float* cd = scratch_;            // both sides' |x_{i+-L} - x_i|: 2 cap
   float* ad = scratch_ + 2 * cap;  // |x_{i+L} - x_{i-L}|: cap
@@ -357,14 +338,17 @@ double SmoothedRoi::decorrelated_noise(const VolumeView& vol, const BoxLattice& 
         rho[nr++] = den > 0 ? (ma * ma - mb * mb) / den : -0.5;  // a flat box: nothing to decorrelate
       }
     }
-    if (best < 0 || nr == 0) break;  // the box holds no more pairs at this lag
+    if (L == 1) sigma_n_ = sigma_d_ = best < 0 ? 0 : best;
+    if (best < 0 || nr == 0) return;  // the box holds no more pairs at this lag
     for (int u = 1; u < nr; ++u)  // at most three: insertion sort
       for (int v = u; v > 0 && rho[v] < rho[v - 1]; --v) std::swap(rho[v], rho[v - 1]);
     const double med = nr % 2 ? rho[nr / 2] : 0.5 * (rho[nr / 2 - 1] + rho[nr / 2]);
-    if (L == 1 && med < kOversampledRho) break;  // the lag-1 differences see the noise
-    if (med <= 0) return best;
+    if (L == 1 && med < kOversampledRho) return;  // the lag-1 differences see the noise
+    if (med <= 0) {
+      sigma_d_ = best;
+      return;
+    }
   }
-  return sigma_n_;
 }
 
 namespace {

@@ -41,7 +41,8 @@
 // zero floats around them, read by the vector kernels' edge lanes) for the
 // in-place sweep (the region is stored with its longest axis slowest, so a plane
 // holds at most max_voxels^(2/3) voxels), at least 7 * kNoisePoints floats
-// (shared with the noise estimate: a value and six differences per voxel).
+// (shared with the noise estimate, which uses four per voxel: both sides'
+// differences along an axis, and the two combined ones of the correlation).
 //
 // Values beyond the stored region: sample_index() clamps to the nearest stored
 // voxel; inside_index() tells whether a point lies in the region's voxel box
@@ -83,7 +84,7 @@ enum class RoiStatus : int {
 
 class SmoothedRoi {
  public:
-  static constexpr uint32_t kNoisePoints = 4681;  // 7 floats each: the 32768 of the scratch's floor
+  static constexpr uint32_t kNoisePoints = 4681;  // 7 floats each (four used): the 32768 of the scratch's floor
 
   // Floats per sweep plane for a region of at most max_voxels voxels.
   static int64_t plane_capacity(int64_t max_voxels);
@@ -213,7 +214,7 @@ class SmoothedRoi {
 
  private:
   void estimate_noise(const VolumeView& vol);
-  double decorrelated_noise(const VolumeView& vol, const BoxLattice& lat);
+  void noise_scales(const VolumeView& vol, const BoxLattice& lat);
   void diffuse(uint32_t iterations);
   // Copies the stored region of an integer volume (typed rows); false: the
   // generic per-voxel copy must do it (floats, or extreme rescale factors).

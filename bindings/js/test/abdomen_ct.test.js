@@ -10,14 +10,11 @@ const test = require("node:test");
 const assert = require("node:assert");
 const os = require("os");
 const { execFileSync } = require("child_process");
-const { ROOT, load, fs, path } = require("./helpers.js");
-const nifti = require("../nifti.js");
+const { ROOT, load, readNifti, labelMapDiffers, runsText, fs, path } = require("./helpers.js");
 
 const DATA = process.env.FFSEG_ABDOMEN_CT || path.join(ROOT, "..", "shared", "data", "abdomen_ct");
 const CLI = process.env.FFSEG_CLI || path.join(ROOT, "build", "ffseg");
 const N = 22;
-
-async function readNifti(file) { return nifti.read(await nifti.gunzip(fs.readFileSync(file))); }
 
 test("nine organs at n = 22 through the scaled placement: the wasm build's label map is the native tool's",
   { skip: fs.existsSync(DATA) ? false : `${DATA} is absent: the shared data beside the repository` }, async (t) => {
@@ -42,15 +39,10 @@ test("nine organs at n = 22 through the scaled placement: the wasm build's label
     const lib = await load();
     const spheres = report.objects.map((o) => ({ centre: o.sphere.center_mm, radius: o.sphere.radius_mm }));
     const run = await lib.segment(img, spheres, { meshResolution: N });
-    t.diagnostic(`runs: ${run.runs.map((r) => `n = ${r.meshResolution} from the ${r.from}, ${r.steps} steps`).join("; ")}`);
+    t.diagnostic(`runs: ${runsText(run)}`);
     assert.strictEqual(run.runs.length, report.passes);
     assert.strictEqual(run.steps, report.steps, "steps to rest");
     // labels.nii.gz: object k as its label, a voxel inside two meshes as the first's.
-    let differ = 0;
-    for (let i = 0; i < native.voxels.length; ++i) {
-      let mine = 0;
-      for (let k = 0; k < ids.length && !mine; ++k) if (run.masks[k][i]) mine = ids[k];
-      if (mine !== native.voxels[i]) ++differ;
-    }
+    const differ = labelMapDiffers(native.voxels, run.masks, ids);
     assert.strictEqual(differ, 0, `${differ} voxels differ`);
   });

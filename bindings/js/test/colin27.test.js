@@ -8,14 +8,11 @@ const test = require("node:test");
 const assert = require("node:assert");
 const os = require("os");
 const { execFileSync } = require("child_process");
-const { ROOT, count, load, fs, path } = require("./helpers.js");
-const nifti = require("../nifti.js");
+const { ROOT, count, load, readNifti, labelMapDiffers, runsText, fs, path } = require("./helpers.js");
 
 const MRI = "/usr/share/mricron/templates";
 const CLI = process.env.FFSEG_CLI || path.join(ROOT, "build", "ffseg");
 const N = 33;
-
-async function readNifti(file) { return nifti.read(await nifti.gunzip(fs.readFileSync(file))); }
 
 test("the left putamen: the wasm build's mask is the native tool's, voxel for voxel", async (t) => {
   assert.ok(fs.existsSync(CLI), `${CLI} is missing (make build, or set FFSEG_CLI)`);
@@ -34,7 +31,7 @@ test("the left putamen: the wasm build's mask is the native tool's, voxel for vo
   const lib = await load();
   const run = await lib.segment(img, [{ centre: obj.sphere.center_mm, radius: obj.sphere.radius_mm }], { meshResolution: N });
   const mask = run.masks[0];
-  t.diagnostic(`runs: ${run.runs.map((r) => `n = ${r.meshResolution} from the ${r.from}, ${r.steps} steps`).join("; ")}`);
+  t.diagnostic(`runs: ${runsText(run)}`);
 
   assert.strictEqual(run.runs.length, report.passes, "the tool's runs");
   assert.ok(report.config.refined_from_first_run && run.runs[1].from === "first run", "n = 33 from the first run's mesh");
@@ -74,15 +71,10 @@ test("the eight deep nuclei at n = 33: the wasm build's label map is the native 
   const lib = await load();
   const spheres = report.objects.map((o) => ({ centre: o.sphere.center_mm, radius: o.sphere.radius_mm }));
   const run = await lib.segment(img, spheres, { meshResolution: N });
-  t.diagnostic(`runs: ${run.runs.map((r) => `n = ${r.meshResolution} from the ${r.from}, ${r.steps} steps`).join("; ")}`);
+  t.diagnostic(`runs: ${runsText(run)}`);
   assert.strictEqual(run.runs.length, report.passes);
   assert.strictEqual(run.steps, report.steps, "steps to rest");
   // labels.nii.gz: object k as its AAL label, a voxel inside two meshes as the first's.
-  let differ = 0;
-  for (let i = 0; i < native.voxels.length; ++i) {
-    let mine = 0;
-    for (let k = 0; k < labels.length && !mine; ++k) if (run.masks[k][i]) mine = labels[k];
-    if (mine !== native.voxels[i]) ++differ;
-  }
+  const differ = labelMapDiffers(native.voxels, run.masks, labels);
   assert.strictEqual(differ, 0, `${differ} voxels differ`);
 });

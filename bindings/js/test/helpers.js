@@ -32,4 +32,26 @@ function count(mask) {
 
 const load = (name = "ffseg") => ffseg.load({ dir: WASM_DIR, name });
 
-module.exports = { ROOT, WASM_DIR, ballPhantom, count, load, fs, path };
+// A .nii.gz file as nifti.read gives it.
+async function readNifti(file) {
+  const nifti = require("../nifti.js");
+  return nifti.read(await nifti.gunzip(fs.readFileSync(file)));
+}
+
+// The voxels where the binding's masks, written as the tool writes
+// labels.nii.gz (object k as labels[k], a voxel inside two meshes as the
+// first's), differ from the tool's label map.
+function labelMapDiffers(native, masks, labels) {
+  let differ = 0;
+  for (let i = 0; i < native.length; ++i) {
+    let mine = 0;
+    for (let k = 0; k < labels.length && !mine; ++k) if (masks[k][i]) mine = labels[k];
+    if (mine !== native[i]) ++differ;
+  }
+  return differ;
+}
+
+// One line on the binding's runs, for the test's diagnostics.
+const runsText = (run) => run.runs.map((r) => `n = ${r.meshResolution} from the ${r.from}, ${r.steps} steps`).join("; ");
+
+module.exports = { ROOT, WASM_DIR, ballPhantom, count, load, readNifti, labelMapDiffers, runsText, fs, path };
