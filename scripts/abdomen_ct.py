@@ -15,9 +15,11 @@ The 1 mm grid is made here: trilinear for the CT (rounded to int16, as a
 scanner stores it), nearest neighbour for the labels, voxel edges kept where
 they were (the 3 mm voxel (i, j, k) becomes the 3 x 3 x 3 block
 3i..3i+2 ...; the fine voxel centres are at (3i + 1) of the 3 mm ones).
+--spacing 3x3x1 resamples the slices alone (3 x 3 x 1 mm: thick slices
+reformatted into thin ones, the noise oversampled along one axis).
 Written once into --work (default /tmp/ffseg-abdomen-ct).
 
-usage: scripts/abdomen_ct.py [--spacing 3|1|both] [--organs 5,1,...] [--together]
+usage: scripts/abdomen_ct.py [--spacing 3|1|3x3x1|both] [--organs 5,1,...] [--together]
                              [--resolution auto|N] [--jitter K] [--cli build/ffseg] [--work DIR]
 Needs /usr/bin/python3 with numpy and nibabel (Debian python3-numpy, python3-nibabel).
 """
@@ -43,9 +45,12 @@ REPORTING = [(2, "kidney right"), (6, "stomach"), (8, "vena cava"), (10, "pancre
 
 
 def resample(factor, work):
-    """The shared CT and labels on a grid `factor` times finer; returns the directory."""
+    """The shared CT and labels on a grid `factor` times finer (one factor, or
+    one per axis); returns the directory."""
     import nibabel as nib
-    out = os.path.join(work, f"{factor}x")
+    fs = tuple(factor) if isinstance(factor, (tuple, list)) else (factor,) * 3
+    name = f"{fs[0]}x" if len(set(fs)) == 1 else "x".join(str(f) for f in fs)
+    out = os.path.join(work, name)
     ct_path, lab_path = os.path.join(out, "ct.nii.gz"), os.path.join(out, "labels.nii.gz")
     if os.path.exists(ct_path) and os.path.exists(lab_path):
         return out
@@ -54,24 +59,24 @@ def resample(factor, work):
     lab = nib.load(os.path.join(DATA, "labels.nii.gz"))
     a = np.asarray(ct.dataobj).astype(np.float32)
     labels = np.asarray(lab.dataobj)
-    f = factor
 
-    def axis(n):
+    def axis(n, f):
         j = np.arange(n * f)
         x = np.clip((j - (f - 1) / 2) / f, 0, n - 1)  # fine centre in coarse index units
         i0 = np.minimum(np.floor(x).astype(int), n - 2)
         near = np.clip(np.rint((j - (f - 1) / 2) / f).astype(int), 0, n - 1)
         return i0, (x - i0).astype(np.float32), near
 
-    (i0, wi, ni), (j0, wj, nj), (k0, wk, nk) = [axis(n) for n in a.shape]
+    (i0, wi, ni), (j0, wj, nj), (k0, wk, nk) = [axis(n, f) for n, f in zip(a.shape, fs)]
     t = a[i0] * (1 - wi)[:, None, None] + a[i0 + 1] * wi[:, None, None]
     t = t[:, j0] * (1 - wj)[None, :, None] + t[:, j0 + 1] * wj[None, :, None]
     t = t[:, :, k0] * (1 - wk)[None, None, :] + t[:, :, k0 + 1] * wk[None, None, :]
     fine_labels = labels[ni][:, nj][:, :, nk]
     A = ct.affine.copy()
     S = A[:3, :3].copy()
+    f = np.asarray(fs, dtype=float)
     A[:3, :3] = S / f
-    A[:3, 3] = A[:3, 3] - S @ np.full(3, (f - 1) / (2 * f))  # the first fine centre
+    A[:3, 3] = A[:3, 3] - S @ ((f - 1) / (2 * f))  # the first fine centre
     nib.save(nib.Nifti1Image(np.rint(t).astype(np.int16), A), ct_path)
     nib.save(nib.Nifti1Image(fine_labels.astype(np.uint8), A), lab_path)
     return out
@@ -171,7 +176,7 @@ def segment_together(cli, data_dir, organs, out, params=(), spheres=None):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--spacing", default="3", choices=["3", "1", "both"])
+    ap.add_argument("--spacing", default="3", choices=["3", "1", "3x3x1", "both"])
     ap.add_argument("--organs", default="", help="label ids, comma-separated (default: both sets)")
     ap.add_argument("--resolution", default="auto")
     ap.add_argument("--cli", default=os.path.join(ROOT, "build", "ffseg"))
@@ -195,7 +200,9 @@ def main():
     os.makedirs(args.work, exist_ok=True)
     spacings = ["3", "1"] if args.spacing == "both" else [args.spacing]
     for sp in spacings:
-        data_dir = DATA if sp == "3" else resample(3, args.work)
+        # 3x3x1: the slices alone resampled to 1 mm (thick slices reformatted
+        # into thin ones: the noise oversampled along one axis).
+        data_dir = DATA if sp == "3" else resample(3 if sp == "1" else (1, 1, 3), args.work)
         print(f"\n{sp} mm grid ({data_dir}), mesh resolution {args.resolution}")
         jit_head = f" Dice over 1 + {args.jitter} spheres: mean (min-max) |" if args.jitter else ""
         print("| organ (id) | set | Dice | ASSD mm | HD95 mm | ml / label ml | steps (all passes) | "

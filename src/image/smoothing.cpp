@@ -299,53 +299,78 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
 //              m_B = median|x_{i+L} - 2 x_i + x_{i-L}|
 // rho_a(L) is Gnanadesikan and Kettenring's robust correlation of the two
 // increments x_{i+L} - x_i and x_i - x_{i-L} (their sum and difference are
-// the lag-2L and second differences).
+// the lag-2L and second differences). An axis oversamples the noise when
+// rho_a(1) >= kOversampledRho. The axes that do are read together at the
+// first lag where the median of their rho_a is <= 0 (a grid resampled
+// finer along several axes decorrelates at one lag, the resampling's), each
+// at its s_a there; the others at lag 1; sigma_d_ is the smallest of these
+// scales, as sigma_n_ is of the lag-1 ones (an axis across an edge reads
+// more than the noise, never less). No axis oversampled, or no lag within
+// kMaxNoiseLag where they decorrelate: sigma_n_. A scan whose thick slices
+// were reformatted into thin ones oversamples along one axis only, and its
+// lag-1 scale along that axis, the smallest, reads a fraction of the noise.
 void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
   const int64_t cap = kNoisePoints;
   float* cd = scratch_;            // both sides' |x_{i+-L} - x_i|: 2 cap
   float* ad = scratch_ + 2 * cap;  // |x_{i+L} - x_{i-L}|: cap
   float* bd = scratch_ + 3 * cap;  // |x_{i+L} - 2 x_i + x_{i-L}|: cap
-  for (int64_t L = 1; L <= kMaxNoiseLag; ++L) {
-    double rho[3];
+  // s_a(L) (< 0: too few pairs) and rho_a(L) (false: too few pairs) along axis a.
+  auto scales = [&](int a, int64_t L, double* sa, double* rho) {
+    int64_t nc = 0, nab = 0;
+    lat.for_each([&](int64_t i, int64_t j, int64_t k) {
+      const double x = vol.at(i, j, k);
+      if (!std::isfinite(x)) return;
+      int64_t q[3] = {i, j, k}, r[3] = {i, j, k};
+      q[a] += L;
+      r[a] -= L;
+      const bool hq = q[a] < shi_[a], hr = r[a] >= slo_[a];
+      const double xq = hq ? vol.at(q[0], q[1], q[2]) : 0, xr = hr ? vol.at(r[0], r[1], r[2]) : 0;
+      const bool fq = hq && std::isfinite(xq), fr = hr && std::isfinite(xr);
+      if (fq) cd[nc++] = float(std::fabs(xq - x));
+      if (fr) cd[nc++] = float(std::fabs(xr - x));
+      if (fq && fr) {
+        ad[nab] = float(std::fabs(xq - xr));
+        bd[nab] = float(std::fabs(xq + xr - 2 * x));
+        ++nab;
+      }
+    });
+    *sa = nc >= 16 ? 1.4826 * double(nth_of(cd, nc, nc / 2)) / std::sqrt(2.0) : -1;
+    if (nab < 16) return false;
+    const double ma = nth_of(ad, nab, nab / 2), mb = nth_of(bd, nab, nab / 2);
+    const double den = ma * ma + mb * mb;
+    *rho = den > 0 ? (ma * ma - mb * mb) / den : -0.5;  // a flat box: nothing to decorrelate
+    return true;
+  };
+  auto smaller = [](double a, double b) { return a < 0 || (b >= 0 && b < a) ? b : a; };
+  bool over[3] = {false, false, false};
+  int n_over = 0;
+  double rest = -1;  // the smallest lag-1 scale of the axes that sample the noise
+  sigma_n_ = -1;
+  for (int a = 0; a < 3; ++a) {
+    double sa, rho;
+    over[a] = scales(a, 1, &sa, &rho) && rho >= kOversampledRho && sa >= 0;
+    n_over += over[a];
+    sigma_n_ = smaller(sigma_n_, sa);
+    if (!over[a]) rest = smaller(rest, sa);
+  }
+  if (sigma_n_ < 0) sigma_n_ = 0;
+  sigma_d_ = sigma_n_;
+  if (n_over == 0) return;  // the lag-1 differences see the noise
+  for (int64_t L = 2; L <= kMaxNoiseLag; ++L) {
+    double rho[3], best = -1;
     int nr = 0;
-    double best = -1;
     for (int a = 0; a < 3; ++a) {
-      int64_t nc = 0, nab = 0;
-      lat.for_each([&](int64_t i, int64_t j, int64_t k) {
-        const double x = vol.at(i, j, k);
-        if (!std::isfinite(x)) return;
-        int64_t q[3] = {i, j, k}, r[3] = {i, j, k};
-        q[a] += L;
-        r[a] -= L;
-        const bool hq = q[a] < shi_[a], hr = r[a] >= slo_[a];
-        const double xq = hq ? vol.at(q[0], q[1], q[2]) : 0, xr = hr ? vol.at(r[0], r[1], r[2]) : 0;
-        const bool fq = hq && std::isfinite(xq), fr = hr && std::isfinite(xr);
-        if (fq) cd[nc++] = float(std::fabs(xq - x));
-        if (fr) cd[nc++] = float(std::fabs(xr - x));
-        if (fq && fr) {
-          ad[nab] = float(std::fabs(xq - xr));
-          bd[nab] = float(std::fabs(xq + xr - 2 * x));
-          ++nab;
-        }
-      });
-      if (nc >= 16) {
-        const double sa = 1.4826 * double(nth_of(cd, nc, nc / 2)) / std::sqrt(2.0);
-        if (best < 0 || sa < best) best = sa;
-      }
-      if (nab >= 16) {
-        const double ma = nth_of(ad, nab, nab / 2), mb = nth_of(bd, nab, nab / 2);
-        const double den = ma * ma + mb * mb;
-        rho[nr++] = den > 0 ? (ma * ma - mb * mb) / den : -0.5;  // a flat box: nothing to decorrelate
-      }
+      if (!over[a]) continue;
+      double sa, r;
+      if (scales(a, L, &sa, &r)) rho[nr++] = r;
+      best = smaller(best, sa);
     }
-    if (L == 1) sigma_n_ = sigma_d_ = best < 0 ? 0 : best;
     if (best < 0 || nr == 0) return;  // the box holds no more pairs at this lag
     for (int u = 1; u < nr; ++u)  // at most three: insertion sort
       for (int v = u; v > 0 && rho[v] < rho[v - 1]; --v) std::swap(rho[v], rho[v - 1]);
     const double med = nr % 2 ? rho[nr / 2] : 0.5 * (rho[nr / 2 - 1] + rho[nr / 2]);
-    if (L == 1 && med < kOversampledRho) return;  // the lag-1 differences see the noise
     if (med <= 0) {
-      sigma_d_ = best;
+      sigma_d_ = smaller(best, rest);
       return;
     }
   }

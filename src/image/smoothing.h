@@ -177,22 +177,25 @@ class SmoothedRoi {
   // Statistics of the last compute (raw data in the requested box).
   double noise_sigma() const { return sigma_n_; }
   // The noise at the lag where it has decorrelated: noise_sigma() unless the
-  // grid oversamples the box's noise. A volume resampled onto a finer grid
-  // than it was acquired on (the 1 mm CT made from 3 mm by trilinear
-  // interpolation), or shaped by a smooth reconstruction kernel, holds noise
-  // that is smooth at one voxel: its lag-1 differences read a fraction of its
+  // grid oversamples the box's noise along some axis. A volume resampled onto
+  // a finer grid than it was acquired on (the 1 mm CT made from 3 mm by
+  // trilinear interpolation; thick slices reformatted into thin ones, along
+  // one axis), or shaped by a smooth reconstruction kernel, holds noise that
+  // is smooth at one voxel: its lag-1 differences read a fraction of its
   // spread (2 HU for the 1 mm CT liver, whose 3 mm scan reads 10.5). The
-  // increments' robust correlation at lag 1 (smoothing.cpp) tells: for a
-  // variogram gamma(L) ~ L^alpha it is 2^(alpha - 1) - 1, -1/2 for white
-  // noise (alpha 0), 0 for a random walk, 1 for a field differentiable at the
-  // voxel scale (alpha 2). When its median over the axes is at least
-  // kOversampledRho (alpha >= 1.8: a smooth field; the 1 mm CT's boxes read
-  // 0.80-0.98, Colin27's template 0.00-0.60, the 3 mm CT's -0.54..-0.13), the
-  // estimate is noise_sigma()'s at the first lag whose increments are no
-  // longer positively correlated (rho <= 0, median over the axes), up to
-  // kMaxNoiseLag; none: noise_sigma(). Read by the intensity model's
-  // variance floor only (capped there by the sphere's own spread); the
-  // diffusion's kappa keeps noise_sigma().
+  // increments' robust correlation at lag 1 (smoothing.cpp) tells, axis by
+  // axis: for a variogram gamma(L) ~ L^alpha it is 2^(alpha - 1) - 1, -1/2
+  // for white noise (alpha 0), 0 for a random walk, 1 for a field
+  // differentiable at the voxel scale (alpha 2). The axes where it is at
+  // least kOversampledRho (alpha >= 1.8: a smooth field; the 1 mm CT's boxes
+  // read 0.80-0.98 as a median over the axes, Colin27's template 0.00-0.60,
+  // the 3 mm CT's -0.54..-0.13) are read at the first lag where their
+  // increments are no longer positively correlated (rho <= 0, median over
+  // them), up to kMaxNoiseLag; the other axes at lag 1; the estimate is the
+  // smallest of these scales (an axis across an edge reads more than the
+  // noise). No axis oversampled, or none decorrelates: noise_sigma(). Read
+  // by the intensity model's variance floor only (capped there by the
+  // sphere's own spread); the diffusion's kappa keeps noise_sigma().
   double decorrelated_noise_sigma() const { return sigma_d_; }
   static constexpr double kOversampledRho = 0.75;
   static constexpr int64_t kMaxNoiseLag = 16;
