@@ -19,13 +19,14 @@ they were (the 3 mm voxel (i, j, k) becomes the 3 x 3 x 3 block
 reformatted into thin ones, the noise oversampled along one axis).
 Written once into --work (default /tmp/ffseg-abdomen-ct).
 
-usage: scripts/abdomen_ct.py [--spacing 3|1|3x3x1|both] [--organs 5,1,...] [--together]
-                             [--resolution auto|N] [--jitter K] [--cli build/ffseg] [--work DIR]
+usage: scripts/abdomen_ct.py [--spacing 3|1|both|XxYxZ] [--organs 5,1,...] [--together]
+                             [--resolution auto|N] [--jitter K] [--noise SD] [--cli build/ffseg] [--work DIR]
 Needs /usr/bin/python3 with numpy and nibabel (Debian python3-numpy, python3-nibabel).
 """
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -44,19 +45,39 @@ REPORTING = [(2, "kidney right"), (6, "stomach"), (8, "vena cava"), (10, "pancre
              (100, "autochthon left"), (101, "autochthon right")]
 
 
-def resample(factor, work):
-    """The shared CT and labels on a grid `factor` times finer (one factor, or
-    one per axis); returns the directory."""
+def noisier(sd, work):
+    """The shared CT with white noise of sd HU added (numpy seed 1), as a
+    noisier acquisition of the same anatomy, beside its labels; returns the
+    directory."""
     import nibabel as nib
-    fs = tuple(factor) if isinstance(factor, (tuple, list)) else (factor,) * 3
-    name = f"{fs[0]}x" if len(set(fs)) == 1 else "x".join(str(f) for f in fs)
-    out = os.path.join(work, name)
+    out = os.path.join(work, f"noise{sd:g}")
     ct_path, lab_path = os.path.join(out, "ct.nii.gz"), os.path.join(out, "labels.nii.gz")
     if os.path.exists(ct_path) and os.path.exists(lab_path):
         return out
     os.makedirs(out, exist_ok=True)
     ct = nib.load(os.path.join(DATA, "ct.nii.gz"))
-    lab = nib.load(os.path.join(DATA, "labels.nii.gz"))
+    a = np.asarray(ct.dataobj).astype(np.float64)
+    a += np.random.default_rng(1).normal(0, sd, a.shape)
+    nib.save(nib.Nifti1Image(np.rint(a).astype(np.int16), ct.affine), ct_path)
+    shutil.copyfile(os.path.join(DATA, "labels.nii.gz"), lab_path)
+    return out
+
+
+def resample(factor, work, src=DATA):
+    """The CT and labels of src (default: the shared CT) on a grid `factor`
+    times finer (one factor, or one per axis); returns the directory."""
+    import nibabel as nib
+    fs = tuple(factor) if isinstance(factor, (tuple, list)) else (factor,) * 3
+    name = f"{fs[0]}x" if len(set(fs)) == 1 else "x".join(str(f) for f in fs)
+    if src != DATA:
+        name = os.path.basename(src) + "_" + name
+    out = os.path.join(work, name)
+    ct_path, lab_path = os.path.join(out, "ct.nii.gz"), os.path.join(out, "labels.nii.gz")
+    if os.path.exists(ct_path) and os.path.exists(lab_path):
+        return out
+    os.makedirs(out, exist_ok=True)
+    ct = nib.load(os.path.join(src, "ct.nii.gz"))
+    lab = nib.load(os.path.join(src, "labels.nii.gz"))
     a = np.asarray(ct.dataobj).astype(np.float32)
     labels = np.asarray(lab.dataobj)
 
@@ -80,6 +101,14 @@ def resample(factor, work):
     nib.save(nib.Nifti1Image(np.rint(t).astype(np.int16), A), ct_path)
     nib.save(nib.Nifti1Image(fine_labels.astype(np.uint8), A), lab_path)
     return out
+
+
+def axis_factors(spacing):
+    """Resampling factors of the 3 mm scan for a spacing "XxYxZ" (mm, each 1 or 3)."""
+    mm = spacing.split("x")
+    if len(mm) != 3 or any(m not in ("1", "3") for m in mm):
+        sys.exit(f"abdomen_ct: --spacing {spacing}: expected 3, 1, both or XxYxZ with each of X, Y, Z 1 or 3")
+    return tuple(3 // int(m) for m in mm)
 
 
 def segment(cli, data_dir, organ, name, out, resolution, params=(), sphere=None):
@@ -176,7 +205,9 @@ def segment_together(cli, data_dir, organs, out, params=(), spheres=None):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--spacing", default="3", choices=["3", "1", "3x3x1", "both"])
+    ap.add_argument("--spacing", default="3",
+                    help="3 (the scan), 1 (resampled to 1 mm), both, or XxYxZ in mm, each "
+                         "1 or 3 (e.g. 3x3x1: the slices alone resampled)")
     ap.add_argument("--organs", default="", help="label ids, comma-separated (default: both sets)")
     ap.add_argument("--resolution", default="auto")
     ap.add_argument("--cli", default=os.path.join(ROOT, "build", "ffseg"))
@@ -186,6 +217,9 @@ def main():
     ap.add_argument("--jitter", type=int, default=0, metavar="K",
                     help="also segment each organ alone from its sphere moved by half its radius "
                          "along K of +-x, +-y, +-z (K <= 6) and print the mean Dice over the 1 + K runs")
+    ap.add_argument("--noise", type=float, default=0, metavar="SD",
+                    help="add white noise of SD HU to the scan first (numpy seed 1): a noisier "
+                         "acquisition of the same anatomy")
     ap.add_argument("--together", action="store_true",
                     help="also every organ in one engine (chapter 6), against each alone")
     args = ap.parse_args()
@@ -200,9 +234,11 @@ def main():
     os.makedirs(args.work, exist_ok=True)
     spacings = ["3", "1"] if args.spacing == "both" else [args.spacing]
     for sp in spacings:
-        # 3x3x1: the slices alone resampled to 1 mm (thick slices reformatted
-        # into thin ones: the noise oversampled along one axis).
-        data_dir = DATA if sp == "3" else resample(3 if sp == "1" else (1, 1, 3), args.work)
+        # XxYxZ: the axes resampled one by one (3x3x1: the slices alone, as
+        # thick slices reformatted into thin ones: the noise oversampled
+        # along one axis).
+        src = noisier(args.noise, args.work) if args.noise > 0 else DATA
+        data_dir = src if sp == "3" else resample(3 if sp == "1" else axis_factors(sp), args.work, src)
         print(f"\n{sp} mm grid ({data_dir}), mesh resolution {args.resolution}")
         jit_head = f" Dice over 1 + {args.jitter} spheres: mean (min-max) |" if args.jitter else ""
         print("| organ (id) | set | Dice | ASSD mm | HD95 mm | ml / label ml | steps (all passes) | "

@@ -341,14 +341,46 @@ void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
     *rho = den > 0 ? (ma * ma - mb * mb) / den : -0.5;  // a flat box: nothing to decorrelate
     return true;
   };
+  // rho_a(1) about the voxels one step either side of the lattice's along
+  // a (both sides: the set is its own mirror image, box_lattice.h). A
+  // lattice whose step is a multiple of the resampling factor may hold only
+  // voxels at the coarse samples' own positions, where the increments on
+  // either side are independent (rho -1/2, white noise to all appearances)
+  // although every voxel between is an interpolation; beside them the
+  // increments are of one interpolation segment (rho +1).
+  auto rho_beside = [&](int a, double* rho) {
+    float* sd = scratch_;            // |x_{i+1} - x_{i-1}|: 2 cap
+    float* dd = scratch_ + 2 * cap;  // |x_{i+1} - 2 x_i + x_{i-1}|: 2 cap
+    int64_t n = 0;
+    for (int side = -1; side <= 1; side += 2)
+      lat.for_each([&](int64_t i, int64_t j, int64_t k) {
+        int64_t c[3] = {i, j, k};
+        c[a] += side;
+        if (c[a] - 1 < slo_[a] || c[a] + 1 >= shi_[a]) return;
+        int64_t q[3] = {c[0], c[1], c[2]}, r[3] = {c[0], c[1], c[2]};
+        ++q[a];
+        --r[a];
+        const double x = vol.at(c[0], c[1], c[2]), xq = vol.at(q[0], q[1], q[2]), xr = vol.at(r[0], r[1], r[2]);
+        if (!std::isfinite(x) || !std::isfinite(xq) || !std::isfinite(xr)) return;
+        sd[n] = float(std::fabs(xq - xr));
+        dd[n] = float(std::fabs(xq + xr - 2 * x));
+        ++n;
+      });
+    if (n < 16) return false;
+    const double ma = nth_of(sd, n, n / 2), mb = nth_of(dd, n, n / 2);
+    const double den = ma * ma + mb * mb;
+    *rho = den > 0 ? (ma * ma - mb * mb) / den : -0.5;
+    return true;
+  };
   auto smaller = [](double a, double b) { return a < 0 || (b >= 0 && b < a) ? b : a; };
   bool over[3] = {false, false, false};
   int n_over = 0;
   double rest = -1;  // the smallest lag-1 scale of the axes that sample the noise
   sigma_n_ = -1;
   for (int a = 0; a < 3; ++a) {
-    double sa, rho;
+    double sa, rho, rho_b;
     over[a] = scales(a, 1, &sa, &rho) && rho >= kOversampledRho && sa >= 0;
+    if (!over[a] && sa >= 0 && lat.step > 1 && rho_beside(a, &rho_b)) over[a] = rho_b >= kOversampledRho;
     n_over += over[a];
     sigma_n_ = smaller(sigma_n_, sa);
     if (!over[a]) rest = smaller(rest, sa);

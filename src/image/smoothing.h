@@ -191,7 +191,9 @@ class SmoothedRoi {
   // read 0.80-0.98 as a median over the axes, Colin27's template 0.00-0.60,
   // the 3 mm CT's -0.54..-0.13) are read at the first lag where their
   // increments are no longer positively correlated (rho <= 0, median over
-  // them), up to kMaxNoiseLag; the other axes at lag 1; the estimate is the
+  // them), up to kMaxNoiseLag; the other axes at lag 1 (an axis is also
+  // read beside the statistics lattice's voxels, which may all lie on the
+  // coarse samples' own positions: smoothing.cpp); the estimate is the
   // smallest of these scales (an axis across an edge reads more than the
   // noise). No axis oversampled, or none decorrelates: noise_sigma(). Read
   // by the intensity model's variance floor only (capped there by the

@@ -378,11 +378,7 @@ TEST_CASE("smoothing: noise resampled along one axis only is measured where it d
   REQUIRE(mem.ok);
   // The box one slice short of the grid: its statistics lattice (step 3
   // here, box_lattice.h) then holds voxels of two of the three phases of
-  // the resampling. A lattice whose step is a multiple of the resampling
-  // factor and whose voxels all lie on the thick slices' own positions
-  // sees white noise of a third of the spread there, and nothing to tell
-  // it from a scan's own noise (a limit of a subsampled estimate; the 1 mm
-  // CT's boxes of 41 voxels have two phases).
+  // the resampling.
   const int64_t lo[3] = {0, 0, 0}, hi[3] = {scan.nf[0], scan.nf[1], scan.nf[2] - 1};
   REQUIRE(roi.compute(scan.fine.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
   const double spread = robust_sd(scan.values);  // about 8: the slices' weights' average of the noise
@@ -398,6 +394,18 @@ TEST_CASE("smoothing: noise resampled along one axis only is measured where it d
   CHECK(roi.decorrelated_noise_sigma() > 0.55 * spread);
   CHECK(roi.decorrelated_noise_sigma() > 1.5 * roi.noise_sigma());
   CHECK(roi.decorrelated_noise_sigma() < 1.5 * spread);
+  // The whole grid: its lattice (step 3 from either end of 64 slices) holds
+  // only voxels on the thick slices' own positions, where the increments
+  // either side are independent (white noise of a third of the spread to
+  // all appearances); the voxels beside them show the interpolation.
+  SmoothedRoi whole;
+  Carved wmem([&](Arena& a) { whole.carve(a, scan.nf[0] * scan.nf[1] * scan.nf[2], kCpu); });
+  REQUIRE(wmem.ok);
+  REQUIRE(whole.compute(scan.fine.view, lo, scan.nf, SmoothingSettings()) == RoiStatus::ok);
+  CAPTURE(whole.decorrelated_noise_sigma());
+  CHECK(whole.noise_sigma() < 0.5 * spread);
+  CHECK(whole.decorrelated_noise_sigma() > 0.55 * spread);
+  CHECK(whole.decorrelated_noise_sigma() < 1.5 * spread);
   // The same noise stored with its axes permuted reads the same.
   TestVolume<float> perm(scan.nf[2], scan.nf[0], scan.nf[1], 1, 3, 3);
   for (int64_t k = 0; k < scan.nf[2]; ++k)
