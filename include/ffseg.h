@@ -106,8 +106,9 @@ typedef int32_t ffseg_status;
 /* A numeric failure (matrix not positive definite, non-finite values);
  * the mesh is left as it was before the call. */
 #define FFSEG_ERR_NUMERIC (-9)
-/* A cropped region needs more voxels than config.max_roi_voxels, or a bounding region more
- * than config.max_region_voxels even on its coarsest cells (message: how many). */
+/* A cropped region needs more voxels than config.max_roi_voxels (several objects: than their
+ * shared room has beside the other crops), or a bounding region more than
+ * config.max_region_voxels even on its coarsest cells (message: how many). */
 #define FFSEG_ERR_ROI_TOO_LARGE (-10)
 /* The sphere does not meet the volume's grid. */
 #define FFSEG_ERR_SPHERE_OUTSIDE (-11)
@@ -134,8 +135,13 @@ typedef struct ffseg_config {
   uint32_t max_objects;     /* objects segmented at once; 1..64 (default 1) */
   uint32_t mesh_resolution; /* n: each mesh has 6 n^2 vertices; 2..1024 (default 33) */
   uint32_t reserved0;       /* must be 0 */
-  int64_t max_roi_voxels;   /* largest cropped region one object may use for smoothing
-                               and fast marching, in voxels; 0..2^40 (default 2^22) */
+  int64_t max_roi_voxels;   /* cropped region one object may use for smoothing (and, with
+                               max_region_voxels 0, for its bounding region), in voxels;
+                               0..2^40 (default 2^22). Several objects with grey-level
+                               targets share one room of max_objects x max_roi_voxels for
+                               their smoothed crops: a large organ may use more while
+                               small ones use less, and a crop fails only when it does
+                               not fit beside the others' */
   /* Since 0.2.0 (a shorter struct, struct_size 24, reads as the default): */
   uint32_t target_mode;     /* the target modes the engine will be asked for:
                                FFSEG_TARGET_INTENSITY (default) reserves the grey-level

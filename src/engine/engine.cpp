@@ -64,14 +64,23 @@ void Engine::layout(Arena& a) {
   if (regions) scratch_.carve_regions(a, mesh_, cfg_.region_voxels(), cfg_.max_objects);
   objects_ = a.alloc<Object>(cfg_.max_objects);
   region_maps_ = regions ? a.alloc<RegionMap>(cfg_.max_objects) : nullptr;
+  // One object keeps its crop room to itself, as it always did; several
+  // share theirs (a liver beside small organs holds more than its share).
+  const bool grey = cfg_.target_mode == TargetMode::intensity;
+  const bool shared_crops = grey && cfg_.max_objects > 1;
+  if (shared_crops) {
+    crops_.carve(a, int64_t(cfg_.max_objects) * cfg_.max_roi_voxels, cfg_.max_objects);
+    crop_scratch_ = a.alloc<float>(size_t(SmoothedRoi::scratch_floats(crops_.capacity())));
+  }
   Object probe;  // measuring pass: carve through a throw-away object
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     Object* o = objects_ ? new (&objects_[i]) Object() : &probe;
     o->x = a.alloc<double>(size_t(3) * mesh_.nv);
     // Grey-level buffers only when the configuration allows grey-level
     // targets: a binary-only engine never smooths a crop nor fits a model.
-    if (cfg_.target_mode == TargetMode::intensity) {
-      o->roi.carve(a, cfg_.max_roi_voxels, cpu_);
+    if (grey) {
+      if (shared_crops) o->roi.carve_in(crops_, i, cfg_.max_roi_voxels, crop_scratch_, cpu_);
+      else o->roi.carve(a, cfg_.max_roi_voxels, cpu_);
       o->model.carve(a, IntensityModel::kDefaultSamples, cpu_);
     }
     o->step.carve(a, mesh_, regions);

@@ -6,6 +6,7 @@
 
 #include "arena.h"
 #include "cpu_dispatch.h"
+#include "crop_pool.h"
 #include "cubesphere.h"
 #include "errors.h"
 #include "object.h"
@@ -91,6 +92,10 @@ class Engine {
   Object* objects_ = nullptr;
   RegionMap* region_maps_ = nullptr;  // several objects: object i's bounding region
   StepScratch scratch_;
+  // Several objects with grey-level targets: their smoothed crops share one
+  // room of max_objects x max_roi_voxels (crop_pool.h), and one sweep scratch.
+  CropPool crops_;
+  float* crop_scratch_ = nullptr;
   uint32_t steps_ = 0;
   bool naive_ = false;
   bool solver_failed_ = false;

@@ -170,8 +170,14 @@ Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object
       sm.stats_lo = slo;
       sm.stats_hi = shi;
     }
+    // The crop with slack keeps to the object's own room; the crop it needs
+    // may take more from a room the objects share (crop_pool.h).
+    sm.share_room = !o.model.valid();
     RoiStatus rs = o.roi.compute(vol, lo, hi, sm, msg, msg_len);
-    if (rs == RoiStatus::too_large && o.model.valid()) rs = o.roi.compute(vol, need_lo, need_hi, sm, msg, msg_len);
+    if (rs == RoiStatus::too_large && o.model.valid()) {
+      sm.share_room = true;
+      rs = o.roi.compute(vol, need_lo, need_hi, sm, msg, msg_len);
+    }
     if (rs == RoiStatus::too_large) return Err::roi_too_large;
     if (rs == RoiStatus::empty) {
       std::snprintf(msg, msg_len, "step: the mesh has left the volume");

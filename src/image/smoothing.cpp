@@ -41,18 +41,36 @@ int64_t SmoothedRoi::plane_capacity(int64_t max_voxels) {
   return c > max_voxels ? max_voxels : c;
 }
 
-void SmoothedRoi::carve(Arena& a, int64_t max_voxels, const CpuDispatch& cpu) {
-  cpu_ = cpu;
-  max_voxels_ = max_voxels > 0 ? max_voxels : 0;
-  plane_cap_ = plane_capacity(max_voxels_);
+int64_t SmoothedRoi::scratch_floats(int64_t max_voxels) {
+  if (max_voxels <= 0) return 0;
   // Two sweep planes (a zero float before, between and after), then the
   // face fluxes: two planes for the w faces, the row's u faces and two rows
   // for its v faces (kFluxPad floats around each).
-  scratch_len_ = 7 * plane_cap_ + 3 + 12 * kFluxPad;
-  if (scratch_len_ < 7 * int64_t(kNoisePoints)) scratch_len_ = 7 * int64_t(kNoisePoints);
-  if (max_voxels_ == 0) scratch_len_ = 0;
+  const int64_t n = 7 * plane_capacity(max_voxels) + 3 + 12 * kFluxPad;
+  return n < 7 * int64_t(kNoisePoints) ? 7 * int64_t(kNoisePoints) : n;
+}
+
+void SmoothedRoi::carve(Arena& a, int64_t max_voxels, const CpuDispatch& cpu) {
+  cpu_ = cpu;
+  room_ = nullptr;
+  max_voxels_ = max_voxels > 0 ? max_voxels : 0;
+  plane_cap_ = plane_capacity(max_voxels_);
+  scratch_len_ = scratch_floats(max_voxels_);
   buf_ = a.alloc<float>(size_t(max_voxels_));
   scratch_ = a.alloc<float>(size_t(scratch_len_));
+  valid_ = false;
+}
+
+void SmoothedRoi::carve_in(CropPool& room, uint32_t slot, int64_t max_voxels, float* scratch,
+                           const CpuDispatch& cpu) {
+  cpu_ = cpu;
+  room_ = &room;
+  slot_ = slot;
+  max_voxels_ = max_voxels > 0 ? max_voxels : 0;
+  plane_cap_ = plane_capacity(room.capacity());
+  scratch_len_ = scratch_floats(room.capacity());
+  scratch_ = scratch;
+  room.attach(slot, &buf_);  // buf_: nullptr until compute() takes a span
   valid_ = false;
 }
 
@@ -162,7 +180,8 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
     }
   }
   needed_ = ext[0] * ext[1] * ext[2];  // <= the grid's voxel count, which fits
-  if (needed_ > max_voxels_) {
+  const bool shared = room_ != nullptr && scratch_ != nullptr;
+  if (!(shared && s.share_room) && needed_ > max_voxels_) {
     if (msg && msg_len)
       std::snprintf(msg, msg_len,
                     "smoothing region %lld x %lld x %lld = %lld voxels (box grown by %u voxels for %u iterations) "
@@ -170,6 +189,18 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
                     (long long)ext[0], (long long)ext[1], (long long)ext[2], (long long)needed_, margin, margin,
                     (long long)max_voxels_);
     return RoiStatus::too_large;
+  }
+  if (shared) {  // a span of the room (a previous one too short is given up: recomputed here anyway)
+    valid_ = false;
+    if (room_->acquire(slot_, needed_) == nullptr) {
+      if (msg && msg_len)
+        std::snprintf(msg, msg_len,
+                      "smoothing region %lld x %lld x %lld = %lld voxels does not fit beside the other objects' "
+                      "crops (%lld of the %lld voxels of their shared room held: max_objects x max_roi_voxels)",
+                      (long long)ext[0], (long long)ext[1], (long long)ext[2], (long long)needed_,
+                      (long long)room_->held(), (long long)room_->capacity());
+      return RoiStatus::too_large;
+    }
   }
   if (buf_ == nullptr || scratch_ == nullptr) {
     if (msg && msg_len) std::snprintf(msg, msg_len, "smoothing: region memory was not carved");

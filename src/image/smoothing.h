@@ -55,6 +55,7 @@
 #include "arena.h"
 #include "box_lattice.h"
 #include "cpu_dispatch.h"
+#include "crop_pool.h"
 #include "volume.h"
 
 namespace ffseg {
@@ -72,6 +73,11 @@ struct SmoothingSettings {
   // (intensity_model.h, variance floor).
   const int64_t* stats_lo = nullptr;
   const int64_t* stats_hi = nullptr;
+  // A crop carved in a shared room (carve_in()) may take more than its own
+  // max_voxels when the room has it free (the engine's crop of what the mesh
+  // needs; its crop with slack keeps to its own room, so that one organ's
+  // slack never crowds another organ out).
+  bool share_room = false;
 };
 
 enum class RoiStatus : int {
@@ -93,6 +99,13 @@ class SmoothedRoi {
   // (4, 8 or 16 lanes, the scalar code's operations in its order without FMA,
   // so every kernel gives the same crop).
   void carve(Arena& a, int64_t max_voxels, const CpuDispatch& cpu);
+  // The same with the region's floats from a room shared with other crops
+  // (crop_pool.h), as its owner `slot`: max_voxels is its own room (what it
+  // may take without SmoothingSettings::share_room), scratch the sweep's and
+  // the noise estimate's floats (scratch_floats(room.capacity()) of them),
+  // shared by every crop of the room, which compute() one at a time.
+  void carve_in(CropPool& room, uint32_t slot, int64_t max_voxels, float* scratch, const CpuDispatch& cpu);
+  static int64_t scratch_floats(int64_t max_voxels);
 
   // Smooths the region [lo, hi) (index space, clipped to the grid, grown by
   // s.iterations voxels per side). On failure the crop is invalid, msg (if
@@ -228,6 +241,8 @@ class SmoothedRoi {
 
   float* buf_ = nullptr;
   float* scratch_ = nullptr;
+  CropPool* room_ = nullptr;  // carve_in(): buf_ is a span of this room
+  uint32_t slot_ = 0;
   int64_t max_voxels_ = 0;
   int64_t plane_cap_ = 0;
   int64_t scratch_len_ = 0;

@@ -15,11 +15,13 @@
 //     thesis 7.2: regions need not be of single-voxel accuracy).
 //  3. If that still does not fit, the crops shrink to the largest that fits
 //     (the exact workspace size is asked of the library at every try).
-// A value given on the command line is kept as given. An organ whose crop
-// then needs more than max_roi_voxels makes the engine return
-// FFSEG_ERR_ROI_TOO_LARGE: with sizes from the budget, the tool starts the
-// run again with twice the budget (cmd_segment.cpp, run_engine); with sizes
-// given, it ends the run with the --memory hint.
+// A value given on the command line is kept as given. Several organs share
+// a room of objects x max_roi_voxels for their crops (ffseg.h), so a liver
+// may hold more than its share beside small organs; when the crops together
+// do not fit, the engine returns FFSEG_ERR_ROI_TOO_LARGE: with sizes from
+// the budget, the tool starts the run again with twice the budget
+// (cmd_segment.cpp, run_engine); with sizes given, it ends the run with the
+// --memory hint.
 #pragma once
 #include <cstddef>
 #include <cstdint>
