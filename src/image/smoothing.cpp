@@ -345,6 +345,15 @@ void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
   float* cd = scratch_;            // both sides' |x_{i+-L} - x_i|: 2 cap
   float* ad = scratch_ + 2 * cap;  // |x_{i+L} - x_{i-L}|: cap
   float* bd = scratch_ + 3 * cap;  // |x_{i+L} - 2 x_i + x_{i-L}|: cap
+  // rho from the n pairs' |sum| (m_A) and |difference| (m_B) of the two
+  // increments; false: too few pairs.
+  auto correlation = [](float* sums, float* diffs, int64_t n, double* rho) {
+    if (n < 16) return false;
+    const double ma = nth_of(sums, n, n / 2), mb = nth_of(diffs, n, n / 2);
+    const double den = ma * ma + mb * mb;
+    *rho = den > 0 ? (ma * ma - mb * mb) / den : -0.5;  // a flat box: nothing to decorrelate
+    return true;
+  };
   // s_a(L) (< 0: too few pairs) and rho_a(L) (false: too few pairs) along axis a.
   auto scales = [&](int a, int64_t L, double* sa, double* rho) {
     int64_t nc = 0, nab = 0;
@@ -366,11 +375,7 @@ void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
       }
     });
     *sa = nc >= 16 ? 1.4826 * double(nth_of(cd, nc, nc / 2)) / std::sqrt(2.0) : -1;
-    if (nab < 16) return false;
-    const double ma = nth_of(ad, nab, nab / 2), mb = nth_of(bd, nab, nab / 2);
-    const double den = ma * ma + mb * mb;
-    *rho = den > 0 ? (ma * ma - mb * mb) / den : -0.5;  // a flat box: nothing to decorrelate
-    return true;
+    return correlation(ad, bd, nab, rho);
   };
   // rho_a(1) about the voxels one step either side of the lattice's along
   // a (both sides: the set is its own mirror image, box_lattice.h). A
@@ -397,11 +402,7 @@ void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
         dd[n] = float(std::fabs(xq + xr - 2 * x));
         ++n;
       });
-    if (n < 16) return false;
-    const double ma = nth_of(sd, n, n / 2), mb = nth_of(dd, n, n / 2);
-    const double den = ma * ma + mb * mb;
-    *rho = den > 0 ? (ma * ma - mb * mb) / den : -0.5;
-    return true;
+    return correlation(sd, dd, n, rho);
   };
   auto smaller = [](double a, double b) { return a < 0 || (b >= 0 && b < a) ? b : a; };
   bool over[3] = {false, false, false};
