@@ -131,7 +131,9 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   }
   // The noise the floor reads (header note): the decorrelated estimate where
   // the grid oversamples the noise, at most the sphere's own robust spread in
-  // the raw volume (noise is part of that spread), at least the lag-1 one.
+  // the raw volume (noise is part of that spread), at least the lag-1 one;
+  // the decorrelated one at the acquisition's scale (acquisition_gain), the
+  // spread as the grid shows it (header note).
   double noise = roi.noise_sigma();
   if (raw && roi.decorrelated_noise_sigma() > noise) {
     uint32_t nr = 0;
@@ -141,7 +143,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     if (nr >= 4) {
       std::sort(samples_, samples_ + nr);
       auto q = [&](double f) { return double(samples_[uint32_t(f * double(nr - 1) + 0.5)]); };
-      noise = std::max(noise, std::min(roi.decorrelated_noise_sigma(), (q(0.75) - q(0.25)) / 1.349));
+      noise = std::max(noise, std::min(roi.acquisition_gain() * roi.decorrelated_noise_sigma(), (q(0.75) - q(0.25)) / 1.349));
     }
   }
   uint32_t n = 0;

@@ -25,7 +25,13 @@
 // acquired, the estimate at the lag where the noise has decorrelated,
 // SmoothedRoi::decorrelated_noise_sigma, capped by the sphere's robust spread
 // in the raw volume: the noise is part of that spread, and a template's
-// anatomy read as noise must not widen the floor past it), D the
+// anatomy read as noise must not widen the floor past it. A resampled
+// grid's interpolated voxels hold less noise than the scanner gave, so the
+// decorrelated estimate is taken back to the acquisition's scale
+// (SmoothedRoi::acquisition_gain) before the cap, and the cap is the
+// sphere's spread as the grid shows it: anatomy survives interpolation,
+// noise does not, so a spread the gain would widen could be a template's
+// anatomy (Colin27 at 0.5 mm)), D the
 // crop's robust intensity range p99 - p1 (the contrast scale of the scene)
 // taken within Tukey's far-out fences (Q1 - 3 IQR .. Q3 + 3 IQR of the box):
 // a CT box that holds a few percent of air or lung has p1 at -1000 HU, and

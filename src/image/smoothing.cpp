@@ -231,6 +231,7 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
     estimate_noise(vol);
   } else {  // not needed: kappa is given and no voxel can be non-finite
     sigma_n_ = sigma_d_ = p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
+    gain_ = 1;
     fence_lo_ = -INFINITY;
     fence_hi_ = INFINITY;
   }
@@ -288,6 +289,7 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
     fence_lo_ = -INFINITY;
     fence_hi_ = INFINITY;
     sigma_n_ = sigma_d_ = 0;
+    gain_ = 1;
     return;
   }
   p_lo_ = nth_of(vals, ns, int64_t(std::floor(0.01 * double(ns - 1))));
@@ -419,6 +421,7 @@ void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
   }
   if (sigma_n_ < 0) sigma_n_ = 0;
   sigma_d_ = sigma_n_;
+  gain_ = 1;
   if (n_over == 0) return;  // the lag-1 differences see the noise
   for (int64_t L = 2; L <= kMaxNoiseLag; ++L) {
     double rho[3], best = -1;
@@ -435,6 +438,11 @@ void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
     const double med = nr % 2 ? rho[nr / 2] : 0.5 * (rho[nr / 2 - 1] + rho[nr / 2]);
     if (med <= 0) {
       sigma_d_ = smaller(best, rest);
+      // Linear interpolation by L keeps (2 L^2 + 1) / (3 L^2) of the
+      // acquired variance on average over the L phases along an axis (the
+      // weights (1 - f, f) at f = k / L); the oversampled axes multiply.
+      const double Ld = double(L), kept = (2 * Ld * Ld + 1) / (3 * Ld * Ld);
+      gain_ = std::pow(kept, -0.5 * double(n_over));
       return;
     }
   }

@@ -212,6 +212,21 @@ class SmoothedRoi {
   // by the intensity model's variance floor only (capped there by the
   // sphere's own spread); the diffusion's kappa keeps noise_sigma().
   double decorrelated_noise_sigma() const { return sigma_d_; }
+  // The noise as acquired over the noise as this grid samples it, where the
+  // grid oversamples (decorrelated_noise_sigma() came from a lag L > 1):
+  // a value interpolated between acquired samples averages their noise, so
+  // the resampled grid's voxels hold less of it than the scanner's did
+  // (trilinearly from 3 mm to 1 mm: 0.70 of the variance per axis, a third
+  // of it over three axes). With linear interpolation by L along each of
+  // the n oversampled axes the gain is ((2 L^2 + 1) / (3 L^2))^(-n/2),
+  // with L the lag at which the increments decorrelated (at most the
+  // resampling factor: 3 for 3 mm made 1 mm along all axes, gain 1.69; 2
+  // along z alone, 1.15: then a little low, on the narrow side). 1 when no
+  // axis oversamples. Read by the intensity model's floor (intensity_model.h,
+  // capped there by the sphere's spread): the organ's smoothed values vary
+  // as the acquired noise does, and a resampled grid must not narrow the
+  // model (the 1 mm CT's liver: 0.750 -> 0.817, BENCHMARKS section 12).
+  double acquisition_gain() const { return gain_; }
   static constexpr double kOversampledRho = 0.75;
   static constexpr int64_t kMaxNoiseLag = 16;
   double kappa() const { return kappa_; }
@@ -257,7 +272,7 @@ class SmoothedRoi {
   int64_t needed_ = 0;
   double A_[12] = {}, Ainv_[12] = {};
   double h_[3] = {1, 1, 1};
-  double sigma_n_ = 0, sigma_d_ = 0, kappa_ = 0, dt_ = 0;
+  double sigma_n_ = 0, sigma_d_ = 0, gain_ = 1, kappa_ = 0, dt_ = 0;
   double p_lo_ = 0, p_hi_ = 0, c_lo_ = 0, c_hi_ = 0, fence_lo_ = 0, fence_hi_ = 0, vmin_ = 0, vmax_ = 0;
   int64_t slo_[3] = {0, 0, 0}, shi_[3] = {0, 0, 0};
 };

@@ -347,6 +347,7 @@ TEST_CASE("smoothing, intensity: noise resampled onto a finer grid is measured w
   REQUIRE(roi.compute(c3.view, lo, hic, SmoothingSettings()) == RoiStatus::ok);
   CHECK(roi.noise_sigma() == doctest::Approx(10).epsilon(0.15));
   CHECK(roi.decorrelated_noise_sigma() == roi.noise_sigma());
+  CHECK(roi.acquisition_gain() == 1.0);
 
   // Resampled: the lag-1 differences read a fraction of the field's spread;
   // the decorrelated estimate is of its order, and the floor reads it.
@@ -358,6 +359,13 @@ TEST_CASE("smoothing, intensity: noise resampled onto a finer grid is measured w
   CHECK(roi.noise_sigma() < 0.5 * spread);
   CHECK(roi.decorrelated_noise_sigma() > 0.7 * spread);
   CHECK(roi.decorrelated_noise_sigma() < 1.5 * spread);
+  // The scanner's noise (sd 10) is more than the resampled grid holds;
+  // the acquisition gain (linear interpolation over three axes) takes the
+  // estimate most of the way back to it.
+  CAPTURE(roi.acquisition_gain());
+  CHECK(roi.decorrelated_noise_sigma() < 0.65 * 10);
+  CHECK(roi.acquisition_gain() * roi.decorrelated_noise_sigma() > 0.7 * 10);
+  CHECK(roi.acquisition_gain() * roi.decorrelated_noise_sigma() < 1.15 * 10);
   const double c[3] = {31, 31, 31};
   REQUIRE(model.fit(roi, c, 12, IntensityModelSettings(), nullptr, 0, &f1.view) == ModelStatus::ok);
   CHECK(model.sigma_floor() > 0.7 * spread);
@@ -394,6 +402,10 @@ TEST_CASE("smoothing: noise resampled along one axis only is measured where it d
   CHECK(roi.decorrelated_noise_sigma() > 0.55 * spread);
   CHECK(roi.decorrelated_noise_sigma() > 1.5 * roi.noise_sigma());
   CHECK(roi.decorrelated_noise_sigma() < 1.5 * spread);
+  // One axis interpolated: a gain above 1, below the three axes' (above).
+  CAPTURE(roi.acquisition_gain());
+  CHECK(roi.acquisition_gain() > 1.1);
+  CHECK(roi.acquisition_gain() < 1.25);
   // The whole grid: its lattice (step 3 from either end of 64 slices) holds
   // only voxels on the thick slices' own positions, where the increments
   // either side are independent (white noise of a third of the spread to
@@ -418,6 +430,7 @@ TEST_CASE("smoothing: noise resampled along one axis only is measured where it d
   REQUIRE(pmem.ok);
   REQUIRE(proi.compute(perm.view, lo, phi, SmoothingSettings()) == RoiStatus::ok);
   CHECK(proi.decorrelated_noise_sigma() == doctest::Approx(roi.decorrelated_noise_sigma()).epsilon(0.05));
+  CHECK(proi.acquisition_gain() == doctest::Approx(roi.acquisition_gain()));
 }
 
 TEST_CASE("smoothing, intensity: non-finite voxels neither spread nor reach the model") {

@@ -940,8 +940,8 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     CHECK(t->get("stepping_all_passes")->as_number() > t->get("stepping")->as_number());
     CHECK(r.out.find("(2 passes: " + std::to_string(int(all)) + " steps in ") != std::string::npos);
   }
-  {  // A first run measured before it rests (kMeasureSteps) and kept goes on
-     // from there: the same steps and mask as a run fixed at 12.
+  {  // The first run comes to rest before it is measured; kept, it is the
+     // run fixed at 12: the same steps and mask.
     const std::string slow = " --target binary --sphere 4,27,12,4 --param step_size=0.02 --param convergence_mm=0.01 --max-steps 400";
     const Run r = ffseg(s, "segment " + (s / "small.nii.gz") + slow + " --out " + (s / "d"));
     const Run f = ffseg(s, "segment " + (s / "small.nii.gz") + slow + " --mesh-resolution 12 --out " + (s / "e"));
@@ -951,11 +951,28 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     CHECK(r.err.find("refining the first run") == std::string::npos);
     const Json rd = parse_json(slurp(s / "d/report.json"));
     const Json re = parse_json(slurp(s / "e/report.json"));
-    CHECK(rd.get("steps")->as_number() > 60);  // else this case does not measure before rest
+    CHECK(rd.get("steps")->as_number() > 60);  // past where the first run was once measured
     CHECK(rd.get("steps")->as_number() == re.get("steps")->as_number());
     CHECK(rd.get("converged")->as_bool());
     CHECK(rd.get("config")->get("mesh_resolution")->as_number() == 12);
     CHECK(slurp(s / "d/labels.nii.gz") == slurp(s / "e/labels.nii.gz"));
+  }
+  {  // Refined, it refines the first run at rest (issue 29: a converged
+     // coarse mesh), not where it had got to after 60 steps: the first
+     // run's steps are those of the run fixed at 12.
+    const std::string slow = " --target binary --sphere 16,16,16,4 --param step_size=0.05 --param convergence_mm=0.01 --max-steps 400";
+    const Run r = ffseg(s, "segment " + (s / "large.nii.gz") + slow + " --out " + (s / "f"));
+    const Run f = ffseg(s, "segment " + (s / "large.nii.gz") + slow + " --mesh-resolution 12 --out " + (s / "g"));
+    INFO("stderr: " << r.err);
+    REQUIRE(r.code == 0);
+    REQUIRE(f.code == 0);
+    CHECK(r.err.find("refining the first run's meshes to it") != std::string::npos);
+    const Json rf = parse_json(slurp(s / "f/report.json"));
+    const Json rg = parse_json(slurp(s / "g/report.json"));
+    const double first = rf.get("steps_all_passes")->as_number() - rf.get("steps")->as_number();
+    CHECK(rg.get("converged")->as_bool());
+    CHECK(rg.get("steps")->as_number() > 60);  // else this case cannot tell
+    CHECK(first == rg.get("steps")->as_number());
   }
   {  // --mesh-resolution fixes it.
     const Run r = ffseg(s, "segment " + (s / "small.nii.gz") + " --target binary --sphere 4,27,12,4 --mesh-resolution 9 --out " + (s / "c"));

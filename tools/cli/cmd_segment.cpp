@@ -514,11 +514,11 @@ std::vector<uint64_t> object_voxels(const ffseg_engine* e, const ffseg_tools::Ni
 }
 
 // The deformation. Without --mesh-resolution the first run at
-// kFirstResolution measures each object's surface, at rest or after
-// kMeasureSteps steps, and the run is made again at a finer resolution when
-// they ask for one (mesh_resolution.h); else the first run goes on where it
-// stopped. A fixed resolution above kFirstResolution has the same first run,
-// to rest. Coarse to fine: the finer run starts from the first run's meshes
+// kFirstResolution comes to rest (or --max-steps) and measures each object's
+// surface there, and the run is made again at a finer resolution when they
+// ask for one (mesh_resolution.h); else the first run is the result. A
+// fixed resolution above kFirstResolution has the same first run. Coarse
+// to fine: the finer run starts from the first run's meshes
 // (ffseg_init_mesh; the cube-sphere subdivides exactly), not from the
 // spheres, so a fine mesh never has to grow from a small sphere, where it
 // jams on a scanner's grid (the 1 mm CT liver at n = 49 stopped at 12% of
@@ -557,7 +557,7 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
     ++run->passes;
     return at_rest;
   };
-  const bool at_rest = pass(automatic ? kMeasureSteps : rq.max_steps);
+  const bool at_rest = pass(rq.max_steps);
   // A finer mesh would not make a segmentation of a result that is none.
   // (A stalled first run is still refined: the finer mesh may get past.)
   const uint32_t fine = fixed_fine ? rq.mesh_resolution

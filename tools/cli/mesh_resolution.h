@@ -26,11 +26,10 @@ constexpr uint32_t kFirstResolution = 12;
 constexpr uint32_t kMaxAutoResolution = 49;
 constexpr double kEdgeVoxels = 1.5;
 constexpr double kRerunFactor = 1.5;
-// The first run is measured once at rest or after this many steps (the
-// Colin27 brain at n = 12 flickers to --max-steps without coming to rest;
-// its area at step 60 asks for 49 as at step 200). When it is kept, it
-// goes on stepping from there.
-constexpr int64_t kMeasureSteps = 60;
+// The first run is measured at rest (or at --max-steps), so that the finer
+// run refines a converged coarse mesh (issue 29); it was measured after 60
+// steps once, and the 1 mm CT's liver, refined from where its n = 12 mesh
+// had got to then, ended short of the n = 12 run (BENCHMARKS section 12).
 
 // Area (mm^2) of a triangle mesh: xyz 3 floats per vertex, tris 3 indices each.
 double mesh_area_mm2(const std::vector<float>& xyz, const std::vector<uint32_t>& tris);

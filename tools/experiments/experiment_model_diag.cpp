@@ -108,7 +108,7 @@ TEST_CASE("colin27 model diagnostic") {
     REQUIRE(roi.compute(vol, lo, hi, sm) == RoiStatus::ok);
     IntensityModelSettings ms;
     ms.sigma_floor_fraction = sigf;
-    REQUIRE(model.fit(roi, c, r, ms) == ModelStatus::ok);
+    REQUIRE(model.fit(roi, c, r, ms, nullptr, 0, &vol) == ModelStatus::ok);  // raw: as the engine fits it
     sm.kappa = roi.kappa();
     sm.stats_lo = sm.stats_hi = nullptr;
     REQUIRE(big.compute(vol, blo, bhi, sm) == RoiStatus::ok);
@@ -159,8 +159,8 @@ TEST_CASE("colin27 model diagnostic") {
                 double(tacc) / double(tn), gm.dice, gm.vol_a_ml, gm.vol_b_ml, double(sha) / double(sh));
     if (std::getenv("FFSEG_VERBOSE")) {
       std::sort(tv.begin(), tv.end());
-      std::printf("   sphere r %.1f mm, sigma_floor %.1f, noise %.1f, contrast %.1f..%.1f\n", r,
-                  model.sigma_floor(), roi.noise_sigma(), roi.contrast_low(), roi.contrast_high());
+      std::printf("   sphere r %.1f mm, sigma_floor %.1f, noise %.1f (decorrelated %.1f), contrast %.1f..%.1f\n", r,
+                  model.sigma_floor(), roi.noise_sigma(), roi.decorrelated_noise_sigma(), roi.contrast_low(), roi.contrast_high());
       std::printf("   truth smoothed intensity p5 %.1f p25 %.1f p50 %.1f p75 %.1f p95 %.1f\n", tv[tv.size() / 20],
                   tv[tv.size() / 4], tv[tv.size() / 2], tv[3 * tv.size() / 4], tv[19 * tv.size() / 20]);
       for (uint32_t i = 0; i < model.components(); ++i)

@@ -7,9 +7,9 @@ What is asserted is what the engine promises there: the automatic
 resolution refines the n = 12 mesh and never ends smaller or less accurate
 than it, and a fixed fine resolution either reaches what n = 12 reaches or
 says it stalled (exit 6, report.json "stalled") instead of calling its jam
-convergence. Issue 29's Dice >= 0.85 at 1 mm is not reached (the model the
-sphere's smooth, resampled samples give is narrower than the liver's grey
-levels; BENCHMARKS section 4b): the floors below guard today's figures."""
+convergence. Issue 29's Dice >= 0.85 at 1 mm is not reached (0.795 at n = 12,
+0.817 automatic: the sphere's spread on the resampled grid caps the model's
+noise floor; BENCHMARKS section 12): the floors below guard today's figures."""
 import json
 import os
 import sys
@@ -47,7 +47,7 @@ def test_liver_at_1mm_the_automatic_resolution_refines_n12_and_a_jam_is_never_co
     r12, rep12, o12 = liver(grid_1mm, str(tmp_path / "n12"), 12)
     d12, v12 = o12["metrics"]["dice"], o12["voxels"]
     assert r12.returncode == 0 and not o12["stalled"]
-    assert d12 >= 0.68  # 0.697 measured (0.715 before the model read the decorrelated noise: BENCHMARKS 12)
+    assert d12 >= 0.77  # 0.795 measured (0.697 before the floor read the acquisition's noise: BENCHMARKS 12)
 
     ra, repa, oa = liver(grid_1mm, str(tmp_path / "auto"), "auto")
     assert ra.returncode == 0, ra.stderr
@@ -55,7 +55,7 @@ def test_liver_at_1mm_the_automatic_resolution_refines_n12_and_a_jam_is_never_co
     assert repa["config"]["refined_from_first_run"] is True
     assert not oa["stalled"] and repa["stalled_objects"] == 0
     assert oa["voxels"] >= 0.98 * v12
-    assert oa["metrics"]["dice"] >= d12 - 0.01  # 0.750 against 0.697 measured
+    assert oa["metrics"]["dice"] >= d12 - 0.01  # 0.817 against 0.795 measured
 
     for n in (24, 33, 49):
         r, rep, o = liver(grid_1mm, str(tmp_path / f"n{n}"), n)
@@ -266,28 +266,33 @@ def test_python_segment_places_a_refused_first_run_mesh_scaled_as_the_tool_does(
 
 def test_a_first_run_surface_the_finer_mesh_cannot_carry_is_kept_by_the_tool_and_python(grid_1mm, tmp_path):
     """The gluteus medius right (97) on the 1 mm grid: its n = 12 surface,
-    resampled to the n = 38 its area asks for, crosses itself (the finer
+    resampled to the n = 43 its area asks for, crosses itself (the finer
     chords cut across a tight fold), so its finer run grows from the sphere,
     jams and stalls short of the first run, and it cannot be put back on its
-    first-run surface at 38 either. The finer run is given up and the first
-    run goes on at 12: no stall, no fewer voxels than the first run (before:
-    109,342 against 124,775, stalled, exit 6). segment() makes the same runs,
-    voxel for voxel."""
+    first-run surface at 43 either. The finer run is given up and the first
+    run goes on at 12: no fewer voxels than the first run (253,432 against
+    194,895 measured), and a stall there is said (exit 6), not called
+    convergence. segment() makes the same runs, voxel for voxel. (Until the
+    model's floor read the acquisition's noise, BENCHMARKS section 12, the
+    same happened at n = 38.)"""
     nib = pytest.importorskip("nibabel")
     import numpy as np
     import ffseg
     lab = os.path.join(grid_1mm, "labels.nii.gz")
     out = str(tmp_path / "g97")
     r = run_cli("segment", os.path.join(grid_1mm, "ct.nii.gz"), "--sphere-from-label", f"{lab}:97",
-                "--mesh-resolution", "38", "--out", out, "--quiet", check=False)
-    assert r.returncode == 0, r.stderr
+                "--mesh-resolution", "43", "--out", out, "--quiet", check=False)
+    assert r.returncode in (0, 6), r.stderr
     assert "cannot be put back on its surface from resolution 12" in r.stderr  # warned even with --quiet
     rep = json.load(open(os.path.join(out, "report.json")))
     o = rep["objects"][0]
     assert rep["config"]["finer_run_given_up"] is True and rep["config"]["refined_from_first_run"] is False
     assert rep["config"]["mesh_resolution"] == 12 and rep["passes"] == 3
-    assert not o["stalled"] and o["kept_first_run_surface"]
+    assert o["kept_first_run_surface"]
     assert o["voxels"] >= 0.98 * o["first_run_voxels"]
+    assert (r.returncode == 6) == o["stalled"]
+    if o["stalled"]:
+        assert "stalled" in r.stderr
 
     img = nib.load(os.path.join(grid_1mm, "ct.nii.gz"))
     raw = np.asarray(img.dataobj.get_unscaled())
@@ -295,7 +300,7 @@ def test_a_first_run_surface_the_finer_mesh_cannot_carry_is_kept_by_the_tool_and
     inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
     sphere = (o["sphere"]["center_mm"], o["sphere"]["radius_mm"])
     with pytest.warns(RuntimeWarning, match="first run goes on at resolution 12"):
-        masks = ffseg.segment(raw, img.affine, [sphere], mesh_resolution=38, rescale_slope=slope,
+        masks = ffseg.segment(raw, img.affine, [sphere], mesh_resolution=43, rescale_slope=slope,
                               rescale_intercept=inter)
     cli = np.asarray(nib.load(os.path.join(out, "labels.nii.gz")).dataobj) != 0
     assert int(((masks[0] != 0) != cli).sum()) == 0
