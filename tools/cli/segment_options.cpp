@@ -247,7 +247,7 @@ const char* const kSegmentUsageText =
     "  --window LO,HI          overlay.png's grey window (default: the objects' p1..p99, widened by\n"
     "                          its width on each side, within the scan's p1..p99)\n"
     "  --mesh-resolution N     each mesh has 6 N^2 vertices; 2..1024, or auto (default): a first run\n"
-    "                          at N = 12 measures each surface, and a run again at the N that\n"
+    "                          at N = 12 measures each surface at rest, and a run again at the N that\n"
     "                          gives quads of about 1.5 voxels a side when that is above 18 (cap 49).\n"
     "                          The finer run (automatic, or N fixed above 12, which also has the\n"
     "                          first run) starts from the N = 12 meshes (coarse to fine)\n"
