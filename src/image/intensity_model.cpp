@@ -20,6 +20,60 @@ double weighted_density(const Gaussian1& g, double v) {
 }
 
 // N_m of binning for n samples: the settings' count, else max(8, 5% of n); at most n.
+// The sphere's robust spread in the raw volume at the acquired samples' own
+// positions, on a grid that oversamples (header note; 0 when it does not,
+// or when no phase has kMinPhaseSamples voxels). Resampled by L along an
+// axis, the voxels of one phase (index mod L) lie on the acquired samples
+// where the grids align and carry their whole noise; the voxels between
+// hold averages of it. Anatomy reads the same at every phase. So the largest
+// spread over the phases is the sphere's spread as acquired, noise and
+// anatomy alike. The samples are sorted phase by phase in buf (room for
+// cap), the lattice's sphere voxels as fit() reads them.
+template <class Inside, class Finite>
+double acquired_spread(const SmoothedRoi& roi, const BoxLattice& lat, const Inside& inside, const Finite& finite,
+                       const VolumeView* raw, float* buf, uint32_t cap) {
+  constexpr uint32_t kMaxPhases = 64;         // L <= 4 over three axes, 8 over two
+  constexpr uint32_t kMinPhaseSamples = 8;    // binning's least class (min_count)
+  const int64_t L = roi.noise_lag();
+  uint32_t phases = 1;
+  for (int a = 0; a < 3; ++a)
+    if (roi.oversampled(a)) phases *= uint32_t(L);
+  if (L < 2 || phases > kMaxPhases) return 0;
+  auto phase = [&](int64_t i, int64_t j, int64_t k) {
+    const int64_t ix[3] = {i, j, k};
+    uint32_t ph = 0;
+    for (int a = 0; a < 3; ++a)
+      if (roi.oversampled(a)) ph = ph * uint32_t(L) + uint32_t(((ix[a] % L) + L) % L);
+    return ph;
+  };
+  uint32_t start[kMaxPhases + 1] = {}, at[kMaxPhases + 1];
+  uint32_t m = 0;
+  lat.for_each([&](int64_t i, int64_t j, int64_t k) {
+    if (m < cap && inside(i, j, k) && finite(i, j, k)) {
+      ++start[phase(i, j, k) + 1];
+      ++m;
+    }
+  });
+  for (uint32_t p = 1; p <= phases; ++p) start[p] += start[p - 1];
+  for (uint32_t p = 0; p <= phases; ++p) at[p] = start[p];
+  m = 0;
+  lat.for_each([&](int64_t i, int64_t j, int64_t k) {
+    if (m < cap && inside(i, j, k) && finite(i, j, k)) {
+      buf[at[phase(i, j, k)]++] = float(raw->at(i, j, k));
+      ++m;
+    }
+  });
+  double best = 0;
+  for (uint32_t p = 0; p < phases; ++p) {
+    const uint32_t b = start[p], n = start[p + 1] - b;
+    if (n < kMinPhaseSamples) continue;
+    std::sort(buf + b, buf + b + n);
+    auto q = [&](double f) { return double(buf[b + uint32_t(f * double(n - 1) + 0.5)]); };
+    best = std::max(best, (q(0.75) - q(0.25)) / 1.349);
+  }
+  return best;
+}
+
 uint32_t min_count(const IntensityModelSettings& s, uint32_t n) {
   const uint32_t m = s.bin_min_count > 0 ? s.bin_min_count : std::max<uint32_t>(8, (n + 19) / 20);
   return m > n ? n : m;
@@ -132,8 +186,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
   // The noise the floor reads (header note): the decorrelated estimate where
   // the grid oversamples the noise, at most the sphere's own robust spread in
   // the raw volume (noise is part of that spread), at least the lag-1 one;
-  // the decorrelated one at the acquisition's scale (acquisition_gain), the
-  // spread as the grid shows it (header note).
+  // both at the acquisition's scale (acquisition_gain, acquired_spread).
   double noise = roi.noise_sigma();
   if (raw && roi.decorrelated_noise_sigma() > noise) {
     uint32_t nr = 0;
@@ -143,7 +196,9 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     if (nr >= 4) {
       std::sort(samples_, samples_ + nr);
       auto q = [&](double f) { return double(samples_[uint32_t(f * double(nr - 1) + 0.5)]); };
-      noise = std::max(noise, std::min(roi.acquisition_gain() * roi.decorrelated_noise_sigma(), (q(0.75) - q(0.25)) / 1.349));
+      const double spread = (q(0.75) - q(0.25)) / 1.349;
+      const double acquired = acquired_spread(roi, lat, inside, finite_raw, raw, samples_, cap_);
+      noise = std::max(noise, std::min(roi.acquisition_gain() * roi.decorrelated_noise_sigma(), std::max(spread, acquired)));
     }
   }
   uint32_t n = 0;

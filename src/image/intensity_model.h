@@ -26,12 +26,16 @@
 // SmoothedRoi::decorrelated_noise_sigma, capped by the sphere's robust spread
 // in the raw volume: the noise is part of that spread, and a template's
 // anatomy read as noise must not widen the floor past it. A resampled
-// grid's interpolated voxels hold less noise than the scanner gave, so the
-// decorrelated estimate is taken back to the acquisition's scale
-// (SmoothedRoi::acquisition_gain) before the cap, and the cap is the
-// sphere's spread as the grid shows it: anatomy survives interpolation,
-// noise does not, so a spread the gain would widen could be a template's
-// anatomy (Colin27 at 0.5 mm)), D the
+// grid's interpolated voxels hold less noise than the scanner gave, so both
+// are read at the acquisition's scale: the decorrelated estimate times
+// SmoothedRoi::acquisition_gain, and the sphere's spread at the acquired
+// samples' own positions, the largest over the resampling's phases (index
+// mod the noise's lag along each oversampled axis; intensity_model.cpp,
+// acquired_spread). Noise is whole at one phase and averaged at the others;
+// anatomy reads the same at all, so a template's spread is not widened
+// (Colin27 at 0.5 mm) while a CT's reaches its scan's: the 1 mm liver's
+// sphere reads 6.7 HU over all its voxels and 11.1 at one phase, as the
+// 3 mm scan does), D the
 // crop's robust intensity range p99 - p1 (the contrast scale of the scene)
 // taken within Tukey's far-out fences (Q1 - 3 IQR .. Q3 + 3 IQR of the box):
 // a CT box that holds a few percent of air or lung has p1 at -1000 HU, and

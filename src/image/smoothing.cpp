@@ -232,6 +232,8 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
   } else {  // not needed: kappa is given and no voxel can be non-finite
     sigma_n_ = sigma_d_ = p_lo_ = p_hi_ = c_lo_ = c_hi_ = 0;
     gain_ = 1;
+    lag_ = 1;
+    over_[0] = over_[1] = over_[2] = false;
     fence_lo_ = -INFINITY;
     fence_hi_ = INFINITY;
   }
@@ -290,6 +292,8 @@ void SmoothedRoi::estimate_noise(const VolumeView& vol) {
     fence_hi_ = INFINITY;
     sigma_n_ = sigma_d_ = 0;
     gain_ = 1;
+    lag_ = 1;
+    over_[0] = over_[1] = over_[2] = false;
     return;
   }
   p_lo_ = nth_of(vals, ns, int64_t(std::floor(0.01 * double(ns - 1))));
@@ -422,6 +426,8 @@ void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
   if (sigma_n_ < 0) sigma_n_ = 0;
   sigma_d_ = sigma_n_;
   gain_ = 1;
+  lag_ = 1;
+  over_[0] = over_[1] = over_[2] = false;
   if (n_over == 0) return;  // the lag-1 differences see the noise
   for (int64_t L = 2; L <= kMaxNoiseLag; ++L) {
     double rho[3], best = -1;
@@ -443,6 +449,8 @@ void SmoothedRoi::noise_scales(const VolumeView& vol, const BoxLattice& lat) {
       // weights (1 - f, f) at f = k / L); the oversampled axes multiply.
       const double Ld = double(L), kept = (2 * Ld * Ld + 1) / (3 * Ld * Ld);
       gain_ = std::pow(kept, -0.5 * double(n_over));
+      lag_ = L;
+      for (int a = 0; a < 3; ++a) over_[a] = over[a];
       return;
     }
   }

@@ -223,10 +223,15 @@ class SmoothedRoi {
   // resampling factor: 3 for 3 mm made 1 mm along all axes, gain 1.69; 2
   // along z alone, 1.15: then a little low, on the narrow side). 1 when no
   // axis oversamples. Read by the intensity model's floor (intensity_model.h,
-  // capped there by the sphere's spread): the organ's smoothed values vary
-  // as the acquired noise does, and a resampled grid must not narrow the
-  // model (the 1 mm CT's liver: 0.750 -> 0.817, BENCHMARKS section 12).
+  // capped there by the sphere's spread as acquired): the organ's smoothed
+  // values vary as the acquired noise does, and a resampled grid must not
+  // narrow the model (the 1 mm CT's liver: 0.750 -> 0.897, BENCHMARKS
+  // section 12).
   double acquisition_gain() const { return gain_; }
+  // The lag acquisition_gain() came from (1 when no axis oversamples) and
+  // the axes that oversample: the resampling's phases (intensity_model.cpp).
+  int64_t noise_lag() const { return lag_; }
+  bool oversampled(int a) const { return over_[a]; }
   static constexpr double kOversampledRho = 0.75;
   static constexpr int64_t kMaxNoiseLag = 16;
   double kappa() const { return kappa_; }
@@ -273,6 +278,8 @@ class SmoothedRoi {
   double A_[12] = {}, Ainv_[12] = {};
   double h_[3] = {1, 1, 1};
   double sigma_n_ = 0, sigma_d_ = 0, gain_ = 1, kappa_ = 0, dt_ = 0;
+  int64_t lag_ = 1;
+  bool over_[3] = {false, false, false};
   double p_lo_ = 0, p_hi_ = 0, c_lo_ = 0, c_hi_ = 0, fence_lo_ = 0, fence_hi_ = 0, vmin_ = 0, vmax_ = 0;
   int64_t slo_[3] = {0, 0, 0}, shi_[3] = {0, 0, 0};
 };

@@ -7,9 +7,9 @@ What is asserted is what the engine promises there: the automatic
 resolution refines the n = 12 mesh and never ends smaller or less accurate
 than it, and a fixed fine resolution either reaches what n = 12 reaches or
 says it stalled (exit 6, report.json "stalled") instead of calling its jam
-convergence. Issue 29's Dice >= 0.85 at 1 mm is not reached (0.795 at n = 12,
-0.817 automatic: the sphere's spread on the resampled grid caps the model's
-noise floor; BENCHMARKS section 12): the floors below guard today's figures."""
+convergence. And issue 29's bar: Dice >= 0.85 at n = 12, 24, 33, 49 and
+automatic (0.871, 0.895, 0.898, 0.897 and 0.897 measured, since the model's
+floor reads the noise as the scanner acquired it: BENCHMARKS section 12)."""
 import json
 import os
 import sys
@@ -47,7 +47,7 @@ def test_liver_at_1mm_the_automatic_resolution_refines_n12_and_a_jam_is_never_co
     r12, rep12, o12 = liver(grid_1mm, str(tmp_path / "n12"), 12)
     d12, v12 = o12["metrics"]["dice"], o12["voxels"]
     assert r12.returncode == 0 and not o12["stalled"]
-    assert d12 >= 0.77  # 0.795 measured (0.697 before the floor read the acquisition's noise: BENCHMARKS 12)
+    assert d12 >= 0.85  # 0.871 measured (0.697 before the floor read the acquisition's noise: BENCHMARKS 12)
 
     ra, repa, oa = liver(grid_1mm, str(tmp_path / "auto"), "auto")
     assert ra.returncode == 0, ra.stderr
@@ -55,7 +55,8 @@ def test_liver_at_1mm_the_automatic_resolution_refines_n12_and_a_jam_is_never_co
     assert repa["config"]["refined_from_first_run"] is True
     assert not oa["stalled"] and repa["stalled_objects"] == 0
     assert oa["voxels"] >= 0.98 * v12
-    assert oa["metrics"]["dice"] >= d12 - 0.01  # 0.817 against 0.795 measured
+    assert oa["metrics"]["dice"] >= d12 - 0.01  # 0.897 against 0.871 measured
+    assert oa["metrics"]["dice"] >= 0.85
 
     for n in (24, 33, 49):
         r, rep, o = liver(grid_1mm, str(tmp_path / f"n{n}"), n)
@@ -67,6 +68,7 @@ def test_liver_at_1mm_the_automatic_resolution_refines_n12_and_a_jam_is_never_co
         assert reached or (o["stalled"] and r.returncode == 6 and "stalled" in r.stderr)
         assert rep["config"]["refined_from_first_run"] is True  # from its n = 12 mesh: from the sphere it jams
         assert not rep["converged"] or reached
+        assert reached and o["metrics"]["dice"] >= 0.85  # 0.895, 0.898, 0.897 measured
 
 
 def organ_3mm(organ, out):
@@ -264,43 +266,36 @@ def test_python_segment_places_a_refused_first_run_mesh_scaled_as_the_tool_does(
     assert int((mine != cli).sum()) == 0
 
 
-def test_a_first_run_surface_the_finer_mesh_cannot_carry_is_kept_by_the_tool_and_python(grid_1mm, tmp_path):
-    """The gluteus medius right (97) on the 1 mm grid: its n = 12 surface,
-    resampled to the n = 43 its area asks for, crosses itself (the finer
-    chords cut across a tight fold), so its finer run grows from the sphere,
-    jams and stalls short of the first run, and it cannot be put back on its
-    first-run surface at 43 either. The finer run is given up and the first
-    run goes on at 12: no fewer voxels than the first run (253,432 against
-    194,895 measured), and a stall there is said (exit 6), not called
-    convergence. segment() makes the same runs, voxel for voxel. (Until the
-    model's floor read the acquisition's noise, BENCHMARKS section 12, the
-    same happened at n = 38.)"""
+def test_a_finer_run_that_stalls_is_put_back_on_its_first_run_surface_by_the_tool_and_python(grid_1mm, tmp_path):
+    """The stomach (6) on the 1 mm grid at n = 22: its finer run stalls
+    where its first run did not, and it is put back on its n = 12 surface
+    (resampled to 22), from where it rests at 52,802 voxels against its
+    first run's 53,359. segment() makes the same runs, voxel for voxel. (The
+    gluteus medius right used to show the next case, a first-run surface
+    the finer mesh cannot carry and the finer run given up; since the
+    model's floor reads the acquired noise, BENCHMARKS section 12, no organ
+    of this grid at n = 22-48 reaches it: that path has no data test.)"""
     nib = pytest.importorskip("nibabel")
     import numpy as np
     import ffseg
     lab = os.path.join(grid_1mm, "labels.nii.gz")
-    out = str(tmp_path / "g97")
-    r = run_cli("segment", os.path.join(grid_1mm, "ct.nii.gz"), "--sphere-from-label", f"{lab}:97",
-                "--mesh-resolution", "43", "--out", out, "--quiet", check=False)
-    assert r.returncode in (0, 6), r.stderr
-    assert "cannot be put back on its surface from resolution 12" in r.stderr  # warned even with --quiet
+    out = str(tmp_path / "s6")
+    r = run_cli("segment", os.path.join(grid_1mm, "ct.nii.gz"), "--sphere-from-label", f"{lab}:6",
+                "--mesh-resolution", "22", "--out", out, "--quiet", check=False)
+    assert r.returncode == 0, r.stderr
     rep = json.load(open(os.path.join(out, "report.json")))
     o = rep["objects"][0]
-    assert rep["config"]["finer_run_given_up"] is True and rep["config"]["refined_from_first_run"] is False
-    assert rep["config"]["mesh_resolution"] == 12 and rep["passes"] == 3
-    assert o["kept_first_run_surface"]
+    assert rep["config"]["finer_run_given_up"] is False and rep["config"]["refined_from_first_run"] is True
+    assert rep["config"]["mesh_resolution"] == 22 and rep["passes"] == 2
+    assert not o["stalled"] and o["kept_first_run_surface"]
     assert o["voxels"] >= 0.98 * o["first_run_voxels"]
-    assert (r.returncode == 6) == o["stalled"]
-    if o["stalled"]:
-        assert "stalled" in r.stderr
 
     img = nib.load(os.path.join(grid_1mm, "ct.nii.gz"))
     raw = np.asarray(img.dataobj.get_unscaled())
     slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
     inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
     sphere = (o["sphere"]["center_mm"], o["sphere"]["radius_mm"])
-    with pytest.warns(RuntimeWarning, match="first run goes on at resolution 12"):
-        masks = ffseg.segment(raw, img.affine, [sphere], mesh_resolution=43, rescale_slope=slope,
-                              rescale_intercept=inter)
+    masks = ffseg.segment(raw, img.affine, [sphere], mesh_resolution=22, rescale_slope=slope,
+                          rescale_intercept=inter)
     cli = np.asarray(nib.load(os.path.join(out, "labels.nii.gz")).dataobj) != 0
     assert int(((masks[0] != 0) != cli).sum()) == 0
