@@ -940,14 +940,19 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
     CHECK(t->get("stepping_all_passes")->as_number() > t->get("stepping")->as_number());
     CHECK(r.out.find("(2 passes: " + std::to_string(int(all)) + " steps in ") != std::string::npos);
   }
-  {  // The first run comes to rest before it is measured; kept, it is the
-     // run fixed at 12: the same steps and mask.
-    const std::string slow = " --target binary --sphere 4,27,12,4 --param step_size=0.02 --param convergence_mm=0.01 --max-steps 400";
-    const Run r = ffseg(s, "segment " + (s / "small.nii.gz") + slow + " --out " + (s / "d"));
-    const Run f = ffseg(s, "segment " + (s / "small.nii.gz") + slow + " --mesh-resolution 12 --out " + (s / "e"));
+  // The same slow run (many steps at n = 12) automatic into out_auto and
+  // fixed at 12 into out_12; both must succeed.
+  auto auto_and_12 = [&](const char* volume, const std::string& args, const char* out_auto, const char* out_12) {
+    const Run r = ffseg(s, "segment " + (s / volume) + args + " --out " + (s / out_auto));
+    const Run f = ffseg(s, "segment " + (s / volume) + args + " --mesh-resolution 12 --out " + (s / out_12));
     INFO("stderr: " << r.err);
     REQUIRE(r.code == 0);
     REQUIRE(f.code == 0);
+    return r;
+  };
+  {  // The first run comes to rest before it is measured; kept, it is the
+     // run fixed at 12: the same steps and mask.
+    const Run r = auto_and_12("small.nii.gz", " --target binary --sphere 4,27,12,4 --param step_size=0.02 --param convergence_mm=0.01 --max-steps 400", "d", "e");
     CHECK(r.err.find("refining the first run") == std::string::npos);
     const Json rd = parse_json(slurp(s / "d/report.json"));
     const Json re = parse_json(slurp(s / "e/report.json"));
@@ -960,12 +965,7 @@ TEST_CASE("cli: without --mesh-resolution the surface's size picks it: a small b
   {  // Refined, it refines the first run at rest (issue 29: a converged
      // coarse mesh), not where it had got to after 60 steps: the first
      // run's steps are those of the run fixed at 12.
-    const std::string slow = " --target binary --sphere 16,16,16,4 --param step_size=0.05 --param convergence_mm=0.01 --max-steps 400";
-    const Run r = ffseg(s, "segment " + (s / "large.nii.gz") + slow + " --out " + (s / "f"));
-    const Run f = ffseg(s, "segment " + (s / "large.nii.gz") + slow + " --mesh-resolution 12 --out " + (s / "g"));
-    INFO("stderr: " << r.err);
-    REQUIRE(r.code == 0);
-    REQUIRE(f.code == 0);
+    const Run r = auto_and_12("large.nii.gz", " --target binary --sphere 16,16,16,4 --param step_size=0.05 --param convergence_mm=0.01 --max-steps 400", "f", "g");
     CHECK(r.err.find("refining the first run's meshes to it") != std::string::npos);
     const Json rf = parse_json(slurp(s / "f/report.json"));
     const Json rg = parse_json(slurp(s / "g/report.json"));
