@@ -56,6 +56,8 @@ __attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const
   double step = s.step_mm;
   if (!(step > 0)) step = 0.5 * std::fmin(sp[0], std::fmin(sp[1], sp[2]));
   const uint32_t N = s.consecutive_background ? s.consecutive_background : 1;
+  const double Na = std::round(double(N) * s.acquisition_scale);
+  const uint32_t N_acquired = Na > double(N) && Na < 1e6 ? uint32_t(Na) : N;
   const double Mf = std::floor(s.range_mm / step + 1e-9);
   if (!(Mf < 1e7)) return 0;  // absurd range/step ratio
   const int64_t M = int64_t(Mf);
@@ -146,7 +148,7 @@ __attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const
     }
     double t = 0.5 * (ta + tb);
     if (s.partial_volume)
-      t = partial_volume_crossing(roi, model, p0, d, sgn, inside ? 1.0 : -1.0, t, step, N, s.refine_iterations);
+      t = partial_volume_crossing(roi, model, p0, d, sgn, inside ? 1.0 : -1.0, t, step, N_acquired, s.refine_iterations);
     for (int a = 0; a < 3; ++a) target[3 * size_t(v) + a] = u[a] + sgn * t * n[a];
     has[v] = 1;
     ++found;

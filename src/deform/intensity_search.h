@@ -37,6 +37,13 @@
 // (inside or outside) is still decided by g, so the rule only ever moves a
 // boundary by at most N samples away from the object. The engine uses it for
 // a few steps once an object has come to rest (Params::partial_volume_steps).
+// On a grid finer than the scan was acquired on (the 1 mm CT made from 3 mm)
+// an edge is as wide in mm as the acquisition made it, three times as many
+// grid samples: N grid samples beyond the g crossing lie inside the edge,
+// where the object's class, not a rival, is the most probable, and the rule
+// left every boundary on its g crossing, a millimetre inside the label's
+// (BENCHMARKS.md section 12). The N samples are therefore the scan's own:
+// N * acquisition_scale grid samples (rounded), N on a scan's own grid.
 #pragma once
 #include <cstdint>
 
@@ -57,6 +64,9 @@ struct IntensitySearchSettings {
   uint32_t consecutive_background = 3;  // N
   uint32_t refine_iterations = 8;       // bisection steps (step_mm / 256 with the default)
   bool partial_volume = false;          // boundary at the half-way level (see above)
+  // Grid samples per acquired sample (SmoothedRoi::acquisition_scale): the
+  // partial-volume level is sought within N acquired samples.
+  double acquisition_scale = 1;
 };
 
 // h of eq. 5.3.2 at index-space point p.

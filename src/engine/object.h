@@ -59,6 +59,9 @@ struct Object {
   SmoothedRoi roi;
   IntensityModel model;
   double kappa = 0;  // the conductance used, kept when the crop is recomputed
+  // The first crop's SmoothedRoi::acquisition_scale(), kept as kappa is: the
+  // scan's sampling, read where the statistics are read.
+  double acquisition_scale = 1;
   // Several objects: the bounding region (its box and arrival times, thesis
   // 6.2), in the engine's array of every object's regions; else nullptr.
   RegionMap* region = nullptr;

@@ -185,6 +185,7 @@ Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object
     }
     if (rs != RoiStatus::ok) return Err::invalid_argument;
     o.kappa = o.roi.kappa();
+    if (sm.statistics) o.acquisition_scale = o.roi.acquisition_scale();
   }
   if (!o.model.valid()) {
     IntensityModelSettings ms;
@@ -217,6 +218,7 @@ void search_correspondences(const CubeSphere& m, const VolumeView& vol, const Pa
     is.gamma = p.intensity_gamma;
     is.consecutive_background = p.consecutive_background;
     is.partial_volume = o.convergence.refining();
+    is.acquisition_scale = o.acquisition_scale;
     st.found = search_intensity(o.roi, o.model, nv, o.x, normals, is, st.target, st.has, region, st.border);
   }
   // A voxel: the largest spacing, so that a target inside the vertex's own

@@ -232,6 +232,22 @@ class SmoothedRoi {
   // the axes that oversample: the resampling's phases (intensity_model.cpp).
   int64_t noise_lag() const { return lag_; }
   bool oversampled(int a) const { return over_[a]; }
+  // How many of the grid's finest spacings the scan's finest acquired
+  // spacing spans: min_a h_a L_a / min_a h_a, L_a the lag on the oversampled
+  // axes and 1 on the others (3 for the 1 mm CT made from 3 mm, and for 3 x 3
+  // x 1 made from 3 x 3 x 3; 1 on a scan's own grid). An edge is as wide in
+  // mm as the acquisition made it, so what is read "a few samples beyond"
+  // it must be counted in acquired samples (intensity_search.h's
+  // partial-volume level).
+  double acquisition_scale() const {
+    double grid = h_[0], acquired = h_[0] * (over_[0] ? double(lag_) : 1.0);
+    for (int a = 1; a < 3; ++a) {
+      grid = h_[a] < grid ? h_[a] : grid;
+      const double ha = h_[a] * (over_[a] ? double(lag_) : 1.0);
+      acquired = ha < acquired ? ha : acquired;
+    }
+    return grid > 0 ? acquired / grid : 1.0;
+  }
   static constexpr double kOversampledRho = 0.75;
   static constexpr int64_t kMaxNoiseLag = 16;
   double kappa() const { return kappa_; }

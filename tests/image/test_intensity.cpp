@@ -348,6 +348,7 @@ TEST_CASE("smoothing, intensity: noise resampled onto a finer grid is measured w
   CHECK(roi.noise_sigma() == doctest::Approx(10).epsilon(0.15));
   CHECK(roi.decorrelated_noise_sigma() == roi.noise_sigma());
   CHECK(roi.acquisition_gain() == 1.0);
+  CHECK(roi.acquisition_scale() == 1.0);
 
   // Resampled: the lag-1 differences read a fraction of the field's spread;
   // the decorrelated estimate is of its order, and the floor reads it.
@@ -366,6 +367,11 @@ TEST_CASE("smoothing, intensity: noise resampled onto a finer grid is measured w
   CHECK(roi.decorrelated_noise_sigma() < 0.65 * 10);
   CHECK(roi.acquisition_gain() * roi.decorrelated_noise_sigma() > 0.7 * 10);
   CHECK(roi.acquisition_gain() * roi.decorrelated_noise_sigma() < 1.15 * 10);
+  // One acquired sample spans the lag's grid samples: 3 mm of 1 mm voxels.
+  CAPTURE(roi.noise_lag());
+  CHECK(roi.acquisition_scale() == double(roi.noise_lag()));
+  CHECK(roi.acquisition_scale() >= 2.0);
+  CHECK(roi.acquisition_scale() <= 4.0);
   const double c[3] = {31, 31, 31};
   REQUIRE(model.fit(roi, c, 12, IntensityModelSettings(), nullptr, 0, &f1.view) == ModelStatus::ok);
   CHECK(model.sigma_floor() > 0.7 * spread);
@@ -411,6 +417,11 @@ TEST_CASE("smoothing: noise resampled along one axis only is measured where it d
   CAPTURE(roi.acquisition_gain());
   CHECK(roi.acquisition_gain() > 1.1);
   CHECK(roi.acquisition_gain() < 1.25);
+  // 3 x 3 x 1 mm voxels, z read at lag 2: the finest acquired spacing is
+  // z's 2 mm as read, two grid samples.
+  CHECK(roi.acquisition_scale() == double(roi.noise_lag()));
+  CHECK(roi.acquisition_scale() >= 2.0);
+  CHECK(roi.acquisition_scale() <= 3.0);
   // The whole grid: its lattice (step 3 from either end of 64 slices) holds
   // only voxels on the thick slices' own positions, where the increments
   // either side are independent (white noise of a third of the spread to
@@ -1144,6 +1155,68 @@ TEST_CASE("intensity: partial-volume boundaries sit at the half-way level of a b
   search_intensity(roi, model, nv, x.data(), nrm.data(), s, target.data(), has.data());
   CHECK(has == plain_has);
   CHECK(std::memcmp(target.data(), plain.data(), sizeof(double) * 3 * nv) == 0);
+}
+
+TEST_CASE("intensity: the partial-volume level of an edge as wide as a coarser acquisition made it is sought in acquired samples") {
+  // A ball of 90 in 30 whose edge ramps over 6 mm on a 1 mm grid, as an
+  // edge of a 3 mm scan resampled to 1 mm does. The g crossing lies near the
+  // ramp's inner end; N = 3 grid samples (1.5 mm) beyond it the value is
+  // still nearer the object's class, so no rival claims it and the rule
+  // leaves the target there, more than 2 mm inside the edge's centre.
+  // Counted in the acquisition's samples (scale 3: 4.5 mm) a rival class
+  // claims the sample beyond and the target moves out to the half-way level
+  // (the scene's mixture holds a class within the long ramp too, so the
+  // level lies short of the centre), never past the centre.
+  TestVolume<uint8_t> v(72, 72, 72, 1, 1, 1);
+  const double c[3] = {36, 36, 36}, R = 16;
+  REQUIRE(fill_u8_around_centre(
+      v, 13, [&](double d, int64_t) { return 30 + 60 * std::min(1.0, std::max(0.0, (R + 3.0 - d) / 6.0)); }));
+  SmoothedRoi roi;
+  IntensityModel model;
+  Carved mem([&](Arena& a) {
+    roi.carve(a, int64_t(1) << 19, kCpu);
+    model.carve(a, IntensityModel::kDefaultSamples, kCpu);
+  });
+  REQUIRE(mem.ok);
+  int64_t lo[3], hi[3];
+  roi_box_for_ball(v.view, c, 24, lo, hi);
+  REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
+  CHECK(roi.acquisition_scale() == 1.0);  // noise-free: nothing reads as oversampled
+  REQUIRE(model.fit(roi, c, 8, IntensityModelSettings()) == ModelStatus::ok);
+  REQUIRE(model.competitors() >= 1);
+  const uint32_t nv = 400;
+  std::vector<double> x, nrm, plain(3 * nv), grid(3 * nv), acquired(3 * nv);
+  std::vector<uint8_t> plain_has(nv), grid_has(nv), acquired_has(nv);
+  auto offset = [&](const std::vector<double>& t, const std::vector<uint8_t>& h) {
+    double sum = 0;
+    uint32_t n = 0;
+    for (uint32_t q = 0; q < nv; ++q) {
+      if (!h[q]) continue;
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) d2 += (t[3 * q + a] - c[a]) * (t[3 * q + a] - c[a]);
+      sum += std::sqrt(d2) - R;
+      ++n;
+    }
+    return n ? sum / n : 0.0;
+  };
+  IntensitySearchSettings s;  // the engine's Gamma and N
+  s.range_mm = 12;
+  fibonacci(c, 10, nv, &x, &nrm);
+  search_intensity(roi, model, nv, x.data(), nrm.data(), s, plain.data(), plain_has.data());
+  s.partial_volume = true;
+  search_intensity(roi, model, nv, x.data(), nrm.data(), s, grid.data(), grid_has.data());
+  s.acquisition_scale = 3;
+  search_intensity(roi, model, nv, x.data(), nrm.data(), s, acquired.data(), acquired_has.data());
+  const double off_plain = offset(plain, plain_has), off_grid = offset(grid, grid_has),
+               off_acq = offset(acquired, acquired_has);
+  MESSAGE("target offset from the edge's centre: g crossing " << off_plain << " mm, level sought in 3 grid samples "
+                                                               << off_grid << ", in 3 acquired samples " << off_acq);
+  CHECK(plain_has == grid_has);
+  CHECK(plain_has == acquired_has);
+  CHECK(off_plain < -2.0);
+  CHECK(off_grid == doctest::Approx(off_plain).epsilon(1e-9));  // nothing claims 1.5 mm beyond: no move
+  CHECK(off_acq > off_plain + 2.0);                              // most of the way out
+  CHECK(off_acq < 0.3);                                          // never past the centre
 }
 
 namespace {
