@@ -266,15 +266,15 @@ def test_python_segment_places_a_refused_first_run_mesh_scaled_as_the_tool_does(
     assert int((mine != cli).sum()) == 0
 
 
-def test_a_finer_run_that_stalls_is_put_back_on_its_first_run_surface_by_the_tool_and_python(grid_1mm, tmp_path):
-    """The stomach (6) on the 1 mm grid at n = 22: its finer run stalls
-    where its first run did not, and it is put back on its n = 12 surface
-    (resampled to 22), from where it rests at 52,802 voxels against its
-    first run's 53,359. segment() makes the same runs, voxel for voxel. (The
-    gluteus medius right used to show the next case, a first-run surface
-    the finer mesh cannot carry and the finer run given up; since the
-    model's floor reads the acquired noise, BENCHMARKS section 12, no organ
-    of this grid at n = 22-48 reaches it: that path has no data test.)"""
+def test_a_finer_run_from_the_first_runs_surface_is_the_same_in_the_tool_and_python(grid_1mm, tmp_path):
+    """The stomach (6) on the 1 mm grid at n = 22: a first run at n = 12,
+    then n = 22 from its surface, ending larger than the first run (a finer
+    mesh never loses to it). segment() makes the same runs, voxel for voxel.
+    (This stomach used to show a finer run that stalls and is put back on
+    its first-run surface; since the partial-volume level is sought in the
+    scan's acquired samples, BENCHMARKS section 12, no organ of this grid
+    at n = 22-40, nor of the 3 mm scan at 16-40, reaches that path, nor the
+    next one, a finer run given up: neither has a data test now.)"""
     nib = pytest.importorskip("nibabel")
     import numpy as np
     import ffseg
@@ -287,8 +287,8 @@ def test_a_finer_run_that_stalls_is_put_back_on_its_first_run_surface_by_the_too
     o = rep["objects"][0]
     assert rep["config"]["finer_run_given_up"] is False and rep["config"]["refined_from_first_run"] is True
     assert rep["config"]["mesh_resolution"] == 22 and rep["passes"] == 2
-    assert not o["stalled"] and o["kept_first_run_surface"]
-    assert o["voxels"] >= 0.98 * o["first_run_voxels"]
+    assert not o["stalled"] and not o["kept_first_run_surface"]
+    assert o["voxels"] >= o["first_run_voxels"]
 
     img = nib.load(os.path.join(grid_1mm, "ct.nii.gz"))
     raw = np.asarray(img.dataobj.get_unscaled())
