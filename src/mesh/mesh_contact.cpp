@@ -445,15 +445,11 @@ bool triangle_contacts(const CubeSphere& m, const double* x, const ContactScratc
     if (detail::disjoint_triangles_cross(A, B)) stop = hit(u);
   };
   // Each pair once: in the cell holding the low corner of the two boxes'
-  // intersection (it lies in both boxes' cells).
+  // intersection (it lies in both boxes' cells), told by the entries'
+  // low-cell bits before their boxes are read.
   auto query = [&](const BoxGrid& g) {
-    g.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* cell) {
-      if (stop) return;
-      const double* lu = s.lo + 3 * size_t(u);
-      if (!detail::boxes_overlap(lt, ht, lu, s.hi + 3 * size_t(u))) return;
-      for (int a = 0; a < 3; ++a)
-        if (g.cell(lt[a] > lu[a] ? lt[a] : lu[a]) != cell[a]) return;
-      test(u);
+    g.for_each_owned_entry(lt, ht, [&](uint32_t u) {
+      if (!stop && detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
     });
   };
   if (s.grid.cells(lt, ht) <= kMaxQueryCells) {
