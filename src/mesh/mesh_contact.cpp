@@ -296,14 +296,14 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     h *= 2;
   }
   // The grids' builds ask about every triangle id twice: a flag per id
-  // answers which ones were set up.
+  // answers which ones were set up and which of these are big (the cell
+  // arithmetic of fits() is most of a build's cost).
   const uint32_t total = nt * s.count;
   for (uint32_t t = 0; t < total; ++t) s.tri_set[t] = 0;
   for_each_done(m, s, [&](uint32_t t) { s.tri_set[t] = 1; });
-  auto entered_tri = [&](uint32_t t) { return s.tri_set[t] != 0; };
+  for (uint32_t j = 0; j < s.nbig; ++j) s.tri_set[s.big[j]] = 2;
   s.grid.size_table(uint32_t(entered));
-  s.grid.build(s.lo, s.hi, total,
-               [&](uint32_t t) { return entered_tri(t) && s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t)); });
+  s.grid.build(s.lo, s.hi, total, [&](uint32_t t) { return s.tri_set[t] == 1; });
   // The big ones at cells as wide as the widest of them (each then spans at
   // most two per axis).
   double wide = 2 * h;
@@ -313,9 +313,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
   s.big_fit = true;
   for (uint32_t j = 0; j < s.nbig; ++j)
     s.big_fit = s.big_fit && s.big_grid.fits(s.lo + 3 * size_t(s.big[j]), s.hi + 3 * size_t(s.big[j]));
-  s.big_grid.build(s.lo, s.hi, s.big_fit && s.nbig ? total : 0, [&](uint32_t t) {
-    return entered_tri(t) && !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
-  });
+  s.big_grid.build(s.lo, s.hi, s.big_fit && s.nbig ? total : 0, [&](uint32_t t) { return s.tri_set[t] == 2; });
 }
 
 
