@@ -130,6 +130,7 @@ void PatchCertificate::build(const CubeSphere& m) {
         }
     }
     nb_cnt[c] = k;
+    for (uint32_t t = k; t < kMaxNeighbours; ++t) p[t] = kNone;  // neighbours() reads every slot
     (void)overflow;  // clusters left out are covered by the far pairs
   }
   // Boundary loops of the windows.

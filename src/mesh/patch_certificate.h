@@ -103,11 +103,14 @@ struct PatchCertificate {
   bool certify(const double* x, const double* normals,
                const double* lo, const double* hi, uint32_t max_failed);
 
+  // Whether d is in c's window: every slot compared, without branches (the
+  // unused ones hold kNone), as the far pairs ask it of most overlapping
+  // cluster pairs.
   bool neighbours(uint32_t c, uint32_t d) const {
     const uint32_t* p = nb + size_t(kMaxNeighbours) * c;
-    for (uint32_t i = 0; i < nb_cnt[c]; ++i)
-      if (p[i] == d) return true;
-    return false;
+    uint32_t hit = 0;
+    for (uint32_t i = 0; i < kMaxNeighbours; ++i) hit |= uint32_t(p[i] == d);
+    return hit != 0;
   }
 
   // Every pair of clusters (c, d), neither in the other's window, whose boxes
