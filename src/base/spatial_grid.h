@@ -262,12 +262,14 @@ class BoxGrid : public CellTable {
       return false;
     });
   }
-  // For a box [lo, hi] that fits: calls f(id) for the entries met in the
-  // cell holding the low corner of the intersection of the two boxes, the one
-  // cell where the pair counts; that cell is, per axis, the low cell of one
-  // of the two boxes, so an entry's low-cell bits and the query's decide
-  // without arithmetic. (An entry of an aliased cell may be reported; its box
-  // does not overlap the query's, which the caller tests.)
+  // For a box [lo, hi] over fewer than 1024 cells per axis (any box that
+  // fits): calls f(id) for the entries met in the cell holding the low
+  // corner of the intersection of the two boxes, the one cell where the pair
+  // counts; that cell is, per axis, the low cell of one of the two boxes (the
+  // larger; a cell both boxes reach is at or past each), so an entry's
+  // low-cell bits and the query's decide without arithmetic. (An entry of an
+  // aliased cell may be reported; its box does not overlap the query's,
+  // which the caller tests.)
   template <class F>
   void for_each_owned_entry(const double* lo, const double* hi, F&& f) const {
     const int64_t c0 = cell(lo[0]), c1 = cell(lo[1]), c2 = cell(lo[2]);

@@ -230,14 +230,17 @@ void cache_face(const CubeSphere& m, uint32_t f, const double* x, double* n, uin
 }
 
 // split_edge_normal() from the cache: the normal of the triangle of face f
-// (split tri, nt triangles; normals n) holding the directed edge a -> b.
-const double* cached_edge_normal(const uint32_t* tri, int nt, uint32_t a, uint32_t b, const double* n) {
+// (split alt, its normals n) holding the directed edge a -> b. A quad's
+// split keeps its orientation, and each of its edges lies in one triangle:
+// edges 0 and 1 in the first of the 0-2 split, 1 and 2 in the first of the
+// 1-3 split (face_split()), so the edge's place in the face decides.
+const double* cached_edge_normal(const CubeSphere& m, uint32_t f, bool alt, uint32_t a, uint32_t b,
+                                 const double* n) {
   static const double kZero[3] = {0, 0, 0};
-  for (int t = 0; t < nt; ++t) {
-    const uint32_t* id = tri + 3 * t;
-    for (int k = 0; k < 3; ++k)
-      if (id[k] == a && id[(k + 1) % 3] == b) return n + 3 * t;
-  }
+  const uint32_t* q = m.faces + 4 * size_t(f);
+  const int k = q[3] == kNone ? 3 : 4;
+  for (int i = 0; i < k; ++i)
+    if (q[i] == a && q[(i + 1) % k] == b) return n + (k == 3 ? 0 : alt ? (i == 1 || i == 2 ? 0 : 3) : (i < 2 ? 0 : 3));
   return kZero;
 }
 
@@ -262,8 +265,6 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
   }
   const uint32_t* q = m.faces + 4 * size_t(f);
   const int k = q[3] == kNone ? 3 : 4;
-  uint32_t tn[6] = {0, 0, 0, 0, 0, 0};
-  const int ntn = face_split(m, f, alt_new, tn);
   if (nt == 2) {
     if (new_fold(nn, nn + 3, no, no + 3)) bits |= kQuadFold;
   }
@@ -271,14 +272,11 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
     const uint32_t g = m.fadj[4 * size_t(f) + e];
     if (g == kNone || g < f) continue;  // each shared edge once
     const uint32_t a = q[e], b = q[(e + 1) % k];
-    uint32_t tg[6] = {0, 0, 0, 0, 0, 0};
-    const int ntg = face_split(m, g, ts.face_alt_new[g], tg);
-    const double* nf = cached_edge_normal(tn, ntn, a, b, nn);
-    const double* ng = cached_edge_normal(tg, ntg, b, a, ts.face_n_new + 6 * size_t(g));
+    const double* nf = cached_edge_normal(m, f, alt_new, a, b, nn);
+    const double* ng = cached_edge_normal(m, g, ts.face_alt_new[g], b, a, ts.face_n_new + 6 * size_t(g));
     if (!folded(nf, ng)) continue;
-    const int nto = face_split(m, g, ts.face_alt_old[g], tg);
-    const double* of = cached_edge_normal(tri, nt, a, b, no);
-    const double* og = cached_edge_normal(tg, nto, b, a, ts.face_n_old + 6 * size_t(g));
+    const double* of = cached_edge_normal(m, f, alt_old, a, b, no);
+    const double* og = cached_edge_normal(m, g, ts.face_alt_old[g], b, a, ts.face_n_old + 6 * size_t(g));
     if (new_fold(nf, ng, of, og)) bits |= uint8_t(kEdgeFold << e);
   }
   return bits;
@@ -321,12 +319,17 @@ bool violates(const CubeSphere& m, const double* xs, TriangleScratch& ts, Contac
          mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) > 0;
 }
 
-void relax(const CubeSphere& m, double* share, size_t v) {
+// share[v] held within kTaper of each neighbour's. Inlined into the sweeps
+// (four per round over every vertex), the minimum kept in a register: a
+// neighbour is never v itself, so the same values.
+inline __attribute__((always_inline)) void relax(const CubeSphere& m, double* share, size_t v) {
   const uint32_t* nb = m.nbr + 4 * v;
+  double sv = share[v];
   for (int k = 0; k < 4; ++k) {
     const double lim = share[nb[k]] + kTaper;
-    if (share[v] > lim) share[v] = lim;
+    sv = sv > lim ? lim : sv;
   }
+  share[v] = sv;
 }
 
 bool same_bits(double a, double b) {

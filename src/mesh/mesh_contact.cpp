@@ -296,14 +296,14 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     h *= 2;
   }
   // The grids' builds ask about every triangle id twice: a flag per id
-  // answers which ones were set up.
+  // answers which ones were set up and which of these are big (the cell
+  // arithmetic of fits() is most of a build's cost).
   const uint32_t total = nt * s.count;
   for (uint32_t t = 0; t < total; ++t) s.tri_set[t] = 0;
   for_each_done(m, s, [&](uint32_t t) { s.tri_set[t] = 1; });
-  auto entered_tri = [&](uint32_t t) { return s.tri_set[t] != 0; };
+  for (uint32_t j = 0; j < s.nbig; ++j) s.tri_set[s.big[j]] = 2;
   s.grid.size_table(uint32_t(entered));
-  s.grid.build(s.lo, s.hi, total,
-               [&](uint32_t t) { return entered_tri(t) && s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t)); });
+  s.grid.build(s.lo, s.hi, total, [&](uint32_t t) { return s.tri_set[t] == 1; });
   // The big ones at cells as wide as the widest of them (each then spans at
   // most two per axis).
   double wide = 2 * h;
@@ -313,9 +313,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
   s.big_fit = true;
   for (uint32_t j = 0; j < s.nbig; ++j)
     s.big_fit = s.big_fit && s.big_grid.fits(s.lo + 3 * size_t(s.big[j]), s.hi + 3 * size_t(s.big[j]));
-  s.big_grid.build(s.lo, s.hi, s.big_fit && s.nbig ? total : 0, [&](uint32_t t) {
-    return entered_tri(t) && !s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t));
-  });
+  s.big_grid.build(s.lo, s.hi, s.big_fit && s.nbig ? total : 0, [&](uint32_t t) { return s.tri_set[t] == 2; });
 }
 
 
@@ -422,56 +420,75 @@ void zone_codes(const CubeSphere& m, const double* x, ContactScratch& s, const d
   outcodes(x, m.nv, wlo, whi, s.qcode);
 }
 
-// Calls hit(u) for every obstacle triangle u that x's triangle t (boxed by
-// prepare_face()) crosses, while hit returns false; returns whether it
-// stopped. A triangle's crossings depend on its own vertices only: the zone
-// (near overlaps) bounds every obstacle triangle box that its box can meet.
+// Calls hit(t, u) for every pair of a triangle t of x's face f (boxed by
+// prepare_face()) and an obstacle triangle u that cross, while hit returns
+// false; returns whether it stopped. One walk of the grid over the box of
+// the face's triangles serves them both (a quad's two triangles share most
+// of their cells), and meets each obstacle triangle once. A triangle's
+// crossings depend on its own vertices only: the zone (near overlaps)
+// bounds every obstacle triangle box that its box can meet.
 template <class Hit>
-bool triangle_contacts(const CubeSphere& m, const double* x, const ContactScratch& s, uint32_t near, uint32_t t,
-                       Hit&& hit) {
+bool face_contacts(const CubeSphere& m, const double* x, const ContactScratch& s, uint32_t near, uint32_t f,
+                   Hit&& hit) {
   const uint32_t nt = s.nt;
-  const double *lt = s.qlo + 3 * size_t(t), *ht = s.qhi + 3 * size_t(t);
-  bool meets = false;
-  for (uint32_t j = 0; j < near && !meets; ++j)
-    meets = detail::boxes_overlap(lt, ht, s.zone + 6 * size_t(j), s.zone + 6 * size_t(j) + 3);
-  if (!meets) return false;
+  const uint32_t t0 = m.first_triangle(f);
+  const int c = m.faces[4 * size_t(f) + 3] != kNone ? 2 : 1;
+  // The triangles whose boxes meet the zone, and the box around them.
+  uint32_t tq[2];
+  int k = 0;
+  double lf[3], hf[3];
+  for (int i = 0; i < c; ++i) {
+    const uint32_t t = t0 + i;
+    const double *lt = s.qlo + 3 * size_t(t), *ht = s.qhi + 3 * size_t(t);
+    bool meets = false;
+    for (uint32_t j = 0; j < near && !meets; ++j)
+      meets = detail::boxes_overlap(lt, ht, s.zone + 6 * size_t(j), s.zone + 6 * size_t(j) + 3);
+    if (!meets) continue;
+    for (int a = 0; a < 3; ++a) {
+      lf[a] = k == 0 || lt[a] < lf[a] ? lt[a] : lf[a];
+      hf[a] = k == 0 || ht[a] > hf[a] ? ht[a] : hf[a];
+    }
+    tq[k++] = t;
+  }
+  if (k == 0) return false;
   bool stop = false;
   auto test = [&](uint32_t u) {
-    const uint32_t* a = s.qtris + 3 * size_t(t);
+    const double *lu = s.lo + 3 * size_t(u), *hu = s.hi + 3 * size_t(u);
     const uint32_t* b = s.tris + 3 * size_t(u);
     const double* y = s.pos[u / nt];
-    const double* A[3] = {x + 3 * size_t(a[0]), x + 3 * size_t(a[1]), x + 3 * size_t(a[2])};
     const double* B[3] = {y + 3 * size_t(b[0]), y + 3 * size_t(b[1]), y + 3 * size_t(b[2])};
-    if (detail::disjoint_triangles_cross(A, B)) stop = hit(u);
+    for (int i = 0; i < k && !stop; ++i) {
+      const uint32_t t = tq[i];
+      if (!detail::boxes_overlap(s.qlo + 3 * size_t(t), s.qhi + 3 * size_t(t), lu, hu)) continue;
+      const uint32_t* a = s.qtris + 3 * size_t(t);
+      const double* A[3] = {x + 3 * size_t(a[0]), x + 3 * size_t(a[1]), x + 3 * size_t(a[2])};
+      if (detail::disjoint_triangles_cross(A, B)) stop = hit(t, u);
+    }
   };
-  // Each pair once: in the cell holding the low corner of the two boxes'
-  // intersection (it lies in both boxes' cells).
+  // Each obstacle triangle once: in the cell holding the low corner of the
+  // intersection of its box and the face's (it lies in both boxes' cells),
+  // told by the entries' low-cell bits before their boxes are read.
   auto query = [&](const BoxGrid& g) {
-    g.for_each_entry(lt, ht, [&](uint32_t u, const int64_t* cell) {
-      if (stop) return;
-      const double* lu = s.lo + 3 * size_t(u);
-      if (!detail::boxes_overlap(lt, ht, lu, s.hi + 3 * size_t(u))) return;
-      for (int a = 0; a < 3; ++a)
-        if (g.cell(lt[a] > lu[a] ? lt[a] : lu[a]) != cell[a]) return;
-      test(u);
+    g.for_each_owned_entry(lf, hf, [&](uint32_t u) {
+      if (!stop && detail::boxes_overlap(lf, hf, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
     });
   };
-  if (s.grid.cells(lt, ht) <= kMaxQueryCells) {
+  if (s.grid.cells(lf, hf) <= kMaxQueryCells) {
     query(s.grid);
     if (s.nbig == 0 || stop) return stop;
-    if (s.big_fit && s.big_grid.cells(lt, ht) <= kMaxQueryCells) {
+    if (s.big_fit && s.big_grid.cells(lf, hf) <= kMaxQueryCells) {
       query(s.big_grid);
     } else {
       for (uint32_t j = 0; j < s.nbig && !stop; ++j) {
         const uint32_t u = s.big[j];
-        if (detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
+        if (detail::boxes_overlap(lf, hf, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
       }
     }
   } else {
     // Triangles completed for the ray test lie outside the region, so
     // outside every query's boxes.
     for_each_done(m, s, [&](uint32_t u) {
-      if (!stop && detail::boxes_overlap(lt, ht, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
+      if (!stop && detail::boxes_overlap(lf, hf, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
     });
   }
   return stop;
@@ -532,25 +549,20 @@ uint32_t contacts_full(const CubeSphere& m, const double* x, ContactScratch& s, 
   for (uint32_t f = 0; f < m.nfaces; ++f) {
     if ((s.swept && !s.reach[f]) || !face_meets(m, f, s.qcode)) continue;
     prepare_face(m, x, s, f, alt);
-    const uint32_t t0 = m.first_triangle(f);
-    const int c = m.faces[4 * size_t(f) + 3] != kNone ? 2 : 1;
-    for (int i = 0; i < c; ++i) {
-      const uint32_t t = t0 + i;
-      const bool stop = triangle_contacts(m, x, s, near, t, [&](uint32_t u) {
-        ++count;
-        s.crossed[u / nt] = 1;
-        if (!mark) return true;
-        const uint32_t* a = s.qtris + 3 * size_t(t);
-        mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
-        if (record && (room = room && s.npairs < s.pair_cap)) {
-          s.pairs[2 * size_t(s.npairs)] = t;
-          s.pairs[2 * size_t(s.npairs) + 1] = u;
-          ++s.npairs;
-        }
-        return false;
-      });
-      if (stop) return count;
-    }
+    const bool stop = face_contacts(m, x, s, near, f, [&](uint32_t t, uint32_t u) {
+      ++count;
+      s.crossed[u / nt] = 1;
+      if (!mark) return true;
+      const uint32_t* a = s.qtris + 3 * size_t(t);
+      mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
+      if (record && (room = room && s.npairs < s.pair_cap)) {
+        s.pairs[2 * size_t(s.npairs)] = t;
+        s.pairs[2 * size_t(s.npairs) + 1] = u;
+        ++s.npairs;
+      }
+      return false;
+    });
+    if (stop) return count;
   }
   s.tracked = record && room;
   return count + contained(m, x, s, xlo, xhi, mark, alt);
@@ -600,21 +612,16 @@ uint32_t mark_contacts_tracked(const CubeSphere& m, const double* x, ContactScra
   for (uint32_t f = 0; f < m.nfaces && room; ++f) {
     if ((s.swept && !s.reach[f]) || !face_moved(m, f, moved) || !face_meets(m, f, s.qcode)) continue;
     prepare_face(m, x, s, f, alt);
-    const uint32_t t0 = m.first_triangle(f);
-    const int c = m.faces[4 * size_t(f) + 3] != kNone ? 2 : 1;
-    for (int i = 0; i < c && room; ++i) {
-      const uint32_t t = t0 + i;
-      triangle_contacts(m, x, s, near, t, [&](uint32_t u) {
-        if (!(room = s.npairs < s.pair_cap)) return true;
-        s.pairs[2 * size_t(s.npairs)] = t;
-        s.pairs[2 * size_t(s.npairs) + 1] = u;
-        ++s.npairs;
-        s.crossed[u / nt] = 1;
-        const uint32_t* a = s.qtris + 3 * size_t(t);
-        mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
-        return false;
-      });
-    }
+    face_contacts(m, x, s, near, f, [&](uint32_t t, uint32_t u) {
+      if (!(room = s.npairs < s.pair_cap)) return true;
+      s.pairs[2 * size_t(s.npairs)] = t;
+      s.pairs[2 * size_t(s.npairs) + 1] = u;
+      ++s.npairs;
+      s.crossed[u / nt] = 1;
+      const uint32_t* a = s.qtris + 3 * size_t(t);
+      mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
+      return false;
+    });
   }
   if (!room) return contacts_full(m, x, s, mark, alt, true);
   return s.npairs + contained(m, x, s, xlo, xhi, mark, alt);

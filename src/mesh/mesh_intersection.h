@@ -102,7 +102,8 @@ uint32_t mark_intersections(const CubeSphere& m, const double* x, TriangleScratc
 // The same with mark required and the pairs kept in s: when moved is given
 // and the previous call was tracked too, positions x may differ from that
 // call's only at the vertices with moved[v] != 0, and only the triangles
-// around them are tested again. Marks and count equal mark_intersections'.
+// around them are tested again (when they are more than an eighth of the
+// mesh's, all of them, from scratch). Marks and count equal mark_intersections'.
 // Any mark_intersections() call in between ends the tracking.
 uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, TriangleScratch& s, uint8_t* mark,
                                     const uint8_t* moved, const uint8_t* alt = nullptr);

@@ -1,5 +1,6 @@
 #include "patch_certificate.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "tangent_frame.h"
@@ -57,7 +58,8 @@ void PatchCertificate::carve(Arena& a, const CubeSphere& m) {
   cl_faces = a.alloc<uint32_t>(m.nfaces);
   tri_ptr = a.alloc<uint32_t>(size_t(cap) + 1);
   cl_tris = a.alloc<uint32_t>(m.triangle_count());
-  tn = a.alloc<double>(size_t(3) * m.triangle_count());
+  // 6 per cluster fit in 3 per triangle from n = 3 on.
+  tn = a.alloc<double>(std::max(size_t(3) * m.triangle_count(), size_t(6) * cap));
   tmargin = a.alloc<double>(m.triangle_count());
   ntri = m.triangle_count();
   pbox = a.alloc<double>(size_t(6) * ntri);
@@ -130,6 +132,7 @@ void PatchCertificate::build(const CubeSphere& m) {
         }
     }
     nb_cnt[c] = k;
+    for (uint32_t t = k; t < kMaxNeighbours; ++t) p[t] = kNone;  // neighbours() reads every slot
     (void)overflow;  // clusters left out are covered by the far pairs
   }
   // Boundary loops of the windows.
@@ -328,6 +331,8 @@ bool PatchCertificate::certify(const double* x, const double* normals,
       failed[nfailed++] = c;
     }
   }
+  for (uint32_t i = 0; i < ncl; ++i)
+    for (int a = 0; a < 6; ++a) tn[6 * size_t(i) + a] = box[6 * size_t(order[i]) + a];
   return true;
 }
 

@@ -67,7 +67,11 @@ struct PatchCertificate {
   uint32_t* cl_faces = nullptr;      // nfaces
   uint32_t* tri_ptr = nullptr;       // ncl + 1: triangles of cluster c are cl_tris[tri_ptr[c] .. tri_ptr[c+1])
   uint32_t* cl_tris = nullptr;       // triangle count, in cluster order
-  double* tn = nullptr;              // per call, cluster order: 3 per triangle, its normal
+  // Per call, cluster order: 3 per triangle, its normal. Once certify() has
+  // tested the windows (nothing reads the normals after), the cluster boxes
+  // in order's order, 6 each, for the far pairs' sweep to read one after the
+  // other (valid after a certify() that passed; room for both is carved).
+  double* tn = nullptr;
   double* tmargin = nullptr;         // per call, cluster order: the orientation margin of the triangle
   // Per call, cluster order: the triangles' boxes (lo, hi as passed to
   // certify()), one array per bound: pbox[a * ntri + k] the lo of axis a,
@@ -103,11 +107,14 @@ struct PatchCertificate {
   bool certify(const double* x, const double* normals,
                const double* lo, const double* hi, uint32_t max_failed);
 
+  // Whether d is in c's window: every slot compared, without branches (the
+  // unused ones hold kNone), as the far pairs ask it of most overlapping
+  // cluster pairs.
   bool neighbours(uint32_t c, uint32_t d) const {
     const uint32_t* p = nb + size_t(kMaxNeighbours) * c;
-    for (uint32_t i = 0; i < nb_cnt[c]; ++i)
-      if (p[i] == d) return true;
-    return false;
+    uint32_t hit = 0;
+    for (uint32_t i = 0; i < kMaxNeighbours; ++i) hit |= uint32_t(p[i] == d);
+    return hit != 0;
   }
 
   // Every pair of clusters (c, d), neither in the other's window, whose boxes
@@ -115,13 +122,12 @@ struct PatchCertificate {
   template <class F>
   bool for_each_far_pair(F&& f) {
     for (uint32_t i = 0; i < ncl; ++i) {
-      const uint32_t c = order[i];
-      const double* bc = box + 6 * size_t(c);
+      const double* bc = tn + 6 * size_t(i);
       for (uint32_t j = i + 1; j < ncl; ++j) {
-        const uint32_t d = order[j];
-        const double* bd = box + 6 * size_t(d);
+        const double* bd = tn + 6 * size_t(j);
         if (bd[0] > bc[3]) break;
         if (bd[1] > bc[4] || bc[1] > bd[4] || bd[2] > bc[5] || bc[2] > bd[5]) continue;
+        const uint32_t c = order[i], d = order[j];
         if (neighbours(c, d) || neighbours(d, c)) continue;
         if (f(c, d)) return true;
       }

@@ -20,22 +20,36 @@ inline __attribute__((always_inline)) double orient(const double* a, const doubl
   return u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
 }
 
+// The line through p and q meets the interior of triangle t0 t1 t2 (for a
+// segment whose ends lie on both sides of the triangle's plane: it crosses).
+inline __attribute__((always_inline)) bool segment_through(const double* p, const double* q, const double* t0,
+                                                           const double* t1, const double* t2) {
+  const double e0 = orient(p, q, t0, t1), e1 = orient(p, q, t1, t2), e2 = orient(p, q, t2, t0);
+  return (e0 > 0 && e1 > 0 && e2 > 0) || (e0 < 0 && e1 < 0 && e2 < 0);
+}
+
 // The open segment pq passes through the interior of triangle t0 t1 t2.
 inline __attribute__((always_inline)) bool segment_crosses(const double* p, const double* q, const double* t0,
                                                            const double* t1, const double* t2) {
   const double dp = orient(t0, t1, t2, p), dq = orient(t0, t1, t2, q);
   if (!((dp > 0 && dq < 0) || (dp < 0 && dq > 0))) return false;
-  const double e0 = orient(p, q, t0, t1), e1 = orient(p, q, t1, t2), e2 = orient(p, q, t2, t0);
-  return (e0 > 0 && e1 > 0 && e2 > 0) || (e0 < 0 && e1 < 0 && e2 < 0);
+  return segment_through(p, q, t0, t1, t2);
 }
 
 // Triangles A and B (three corners each) with no vertex in common cross: an
 // edge of one passes through the other's interior. Coplanar touching is not
-// a crossing.
+// a crossing. segment_crosses() of each edge, with each corner's side of the
+// other triangle's plane computed once (an edge's two ends read the same
+// orient() values), so the same answer; most pairs tested lie on one side
+// of a plane and stop at these six.
 inline bool disjoint_triangles_cross(const double* const A[3], const double* const B[3]) {
+  const double da[3] = {orient(B[0], B[1], B[2], A[0]), orient(B[0], B[1], B[2], A[1]), orient(B[0], B[1], B[2], A[2])};
+  const double db[3] = {orient(A[0], A[1], A[2], B[0]), orient(A[0], A[1], A[2], B[1]), orient(A[0], A[1], A[2], B[2])};
+  auto straddle = [](double p, double q) { return (p > 0 && q < 0) || (p < 0 && q > 0); };
   for (int i = 0; i < 3; ++i) {
-    if (segment_crosses(A[i], A[(i + 1) % 3], B[0], B[1], B[2])) return true;
-    if (segment_crosses(B[i], B[(i + 1) % 3], A[0], A[1], A[2])) return true;
+    const int j = (i + 1) % 3;
+    if (straddle(da[i], da[j]) && segment_through(A[i], A[j], B[0], B[1], B[2])) return true;
+    if (straddle(db[i], db[j]) && segment_through(B[i], B[j], A[0], A[1], A[2])) return true;
   }
   return false;
 }
