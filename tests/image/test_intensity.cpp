@@ -1071,28 +1071,69 @@ TEST_CASE("intensity: the sphere's samples are trimmed to its main classes: a cl
   }
 }
 
+namespace {
+
+// A u8 ball of 90 in a background of 30 on a 1 mm grid (dims^3 voxels,
+// centred), its edge a linear ramp `ramp` mm wide centred on radius R; the
+// crop of the search range `box` mm around the centre is smoothed and the
+// model fitted to a sphere of radius `sphere` mm.
+struct RampedBall {
+  TestVolume<uint8_t> v;
+  double c[3];
+  double R;
+  SmoothedRoi roi;
+  IntensityModel model;
+  Carved mem;
+  RampedBall(int64_t dims, double R_, double ramp, uint64_t seed)
+      : v(dims, dims, dims, 1, 1, 1),
+        c{double(dims / 2), double(dims / 2), double(dims / 2)},
+        R(R_),
+        mem([&](Arena& a) {
+          roi.carve(a, int64_t(1) << 19, kCpu);
+          model.carve(a, IntensityModel::kDefaultSamples, kCpu);
+        }) {
+    const double h = 0.5 * ramp;
+    fill_ok = fill_u8_around_centre(
+        v, seed, [&](double d, int64_t) { return 30 + 60 * std::min(1.0, std::max(0.0, (R + h - d) / ramp)); });
+  }
+  bool fill_ok = false;
+  bool prepare(double box, double sphere, const IntensityModelSettings& ms) {
+    int64_t lo[3], hi[3];
+    roi_box_for_ball(v.view, c, box, lo, hi);
+    return mem.ok && fill_ok && roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok &&
+           model.fit(roi, c, sphere, ms) == ModelStatus::ok;
+  }
+  // Mean signed distance from the sphere of radius R of the targets (3 per
+  // vertex) that have one; count: how many.
+  double offset(const std::vector<double>& t, const std::vector<uint8_t>& has, uint32_t* count = nullptr) const {
+    double sum = 0;
+    uint32_t n = 0;
+    for (size_t q = 0; q < has.size(); ++q) {
+      if (!has[q]) continue;
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) d2 += (t[3 * q + a] - c[a]) * (t[3 * q + a] - c[a]);
+      sum += std::sqrt(d2) - R;
+      ++n;
+    }
+    if (count) *count = n;
+    return n ? sum / n : 0.0;
+  }
+};
+
+}  // namespace
+
 TEST_CASE("intensity: partial-volume boundaries sit at the half-way level of a blurred edge, from inside and outside") {
   // A u8 ball of 90 in a background of 30 (1 mm voxels, noise sigma 0.5); the
   // edge is a linear ramp 2 mm wide centred on R = 12 mm, so the half-way level
   // 60 lies at R while g gives up about 0.6 mm inside it. (With a 3 mm ramp
   // the crop's subsampled mixture came out as a single class, mean 36, and
   // nothing competed: the rule then leaves every target where it is.)
-  TestVolume<uint8_t> v(64, 64, 64, 1, 1, 1);
-  const double c[3] = {32, 32, 32}, R = 12;
-  REQUIRE(fill_u8_around_centre(
-      v, 11, [&](double d, int64_t) { return 30 + 60 * std::min(1.0, std::max(0.0, (R + 1.0 - d) / 2.0)); }));
-  SmoothedRoi roi;
-  IntensityModel model;
-  Carved mem([&](Arena& a) {
-    roi.carve(a, int64_t(1) << 19, kCpu);
-    model.carve(a, IntensityModel::kDefaultSamples, kCpu);
-  });
-  REQUIRE(mem.ok);
-  int64_t lo[3], hi[3];
-  roi_box_for_ball(v.view, c, 17, lo, hi);  // the ball is a sixth of the crop: a class of the scene
-  REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
+  RampedBall ball(64, 12, 2, 11);
+  const double* c = ball.c;
+  SmoothedRoi& roi = ball.roi;
+  IntensityModel& model = ball.model;
   IntensityModelSettings ms;
-  REQUIRE(model.fit(roi, c, 5, ms) == ModelStatus::ok);
+  REQUIRE(ball.prepare(17, 5, ms));  // the ball is a sixth of the crop: a class of the scene
   REQUIRE(model.competitors() >= 1);
   double rival = 0;
   CHECK(model.rival_mean(30, &rival));
@@ -1103,19 +1144,6 @@ TEST_CASE("intensity: partial-volume boundaries sit at the half-way level of a b
   const uint32_t nv = 400;
   std::vector<double> x, nrm, target(3 * nv), plain(3 * nv);
   std::vector<uint8_t> has(nv), plain_has(nv);
-  // Mean signed distance of the targets from the sphere of radius R.
-  auto offset = [&](const std::vector<double>& t, const std::vector<uint8_t>& h, uint32_t* count) {
-    double sum = 0;
-    *count = 0;
-    for (uint32_t q = 0; q < nv; ++q) {
-      if (!h[q]) continue;
-      double d2 = 0;
-      for (int a = 0; a < 3; ++a) d2 += (t[3 * q + a] - c[a]) * (t[3 * q + a] - c[a]);
-      sum += std::sqrt(d2) - R;
-      ++*count;
-    }
-    return *count ? sum / *count : 0.0;
-  };
   IntensitySearchSettings s;
   s.gamma = 0.05;  // a low level: these cases test the search, not the model's threshold
   s.range_mm = 12;
@@ -1127,7 +1155,7 @@ TEST_CASE("intensity: partial-volume boundaries sit at the half-way level of a b
     s.partial_volume = true;
     search_intensity(roi, model, nv, x.data(), nrm.data(), s, target.data(), has.data());
     uint32_t n_plain = 0, n_pv = 0;
-    const double off_plain = offset(plain, plain_has, &n_plain), off_pv = offset(target, has, &n_pv);
+    const double off_plain = ball.offset(plain, plain_has, &n_plain), off_pv = ball.offset(target, has, &n_pv);
     MESSAGE("target offset from R: g crossing " << off_plain << " mm, partial-volume level " << off_pv << " mm");
     CHECK(n_plain >= nv * 98 / 100);
     CHECK(n_pv == n_plain);
@@ -1167,38 +1195,16 @@ TEST_CASE("intensity: the partial-volume level of an edge as wide as a coarser a
   // claims the sample beyond and the target moves out to the half-way level
   // (the scene's mixture holds a class within the long ramp too, so the
   // level lies short of the centre), never past the centre.
-  TestVolume<uint8_t> v(72, 72, 72, 1, 1, 1);
-  const double c[3] = {36, 36, 36}, R = 16;
-  REQUIRE(fill_u8_around_centre(
-      v, 13, [&](double d, int64_t) { return 30 + 60 * std::min(1.0, std::max(0.0, (R + 3.0 - d) / 6.0)); }));
-  SmoothedRoi roi;
-  IntensityModel model;
-  Carved mem([&](Arena& a) {
-    roi.carve(a, int64_t(1) << 19, kCpu);
-    model.carve(a, IntensityModel::kDefaultSamples, kCpu);
-  });
-  REQUIRE(mem.ok);
-  int64_t lo[3], hi[3];
-  roi_box_for_ball(v.view, c, 24, lo, hi);
-  REQUIRE(roi.compute(v.view, lo, hi, SmoothingSettings()) == RoiStatus::ok);
+  RampedBall ball(72, 16, 6, 13);
+  const double* c = ball.c;
+  const SmoothedRoi& roi = ball.roi;
+  const IntensityModel& model = ball.model;
+  REQUIRE(ball.prepare(24, 8, IntensityModelSettings()));
   CHECK(roi.acquisition_scale() == 1.0);  // noise-free: nothing reads as oversampled
-  REQUIRE(model.fit(roi, c, 8, IntensityModelSettings()) == ModelStatus::ok);
   REQUIRE(model.competitors() >= 1);
   const uint32_t nv = 400;
   std::vector<double> x, nrm, plain(3 * nv), grid(3 * nv), acquired(3 * nv);
   std::vector<uint8_t> plain_has(nv), grid_has(nv), acquired_has(nv);
-  auto offset = [&](const std::vector<double>& t, const std::vector<uint8_t>& h) {
-    double sum = 0;
-    uint32_t n = 0;
-    for (uint32_t q = 0; q < nv; ++q) {
-      if (!h[q]) continue;
-      double d2 = 0;
-      for (int a = 0; a < 3; ++a) d2 += (t[3 * q + a] - c[a]) * (t[3 * q + a] - c[a]);
-      sum += std::sqrt(d2) - R;
-      ++n;
-    }
-    return n ? sum / n : 0.0;
-  };
   IntensitySearchSettings s;  // the engine's Gamma and N
   s.range_mm = 12;
   fibonacci(c, 10, nv, &x, &nrm);
@@ -1207,8 +1213,8 @@ TEST_CASE("intensity: the partial-volume level of an edge as wide as a coarser a
   search_intensity(roi, model, nv, x.data(), nrm.data(), s, grid.data(), grid_has.data());
   s.acquisition_scale = 3;
   search_intensity(roi, model, nv, x.data(), nrm.data(), s, acquired.data(), acquired_has.data());
-  const double off_plain = offset(plain, plain_has), off_grid = offset(grid, grid_has),
-               off_acq = offset(acquired, acquired_has);
+  const double off_plain = ball.offset(plain, plain_has), off_grid = ball.offset(grid, grid_has),
+               off_acq = ball.offset(acquired, acquired_has);
   MESSAGE("target offset from the edge's centre: g crossing " << off_plain << " mm, level sought in 3 grid samples "
                                                                << off_grid << ", in 3 acquired samples " << off_acq);
   CHECK(plain_has == grid_has);
