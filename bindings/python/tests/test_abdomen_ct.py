@@ -273,8 +273,8 @@ def test_a_finer_run_from_the_first_runs_surface_is_the_same_in_the_tool_and_pyt
     (This stomach used to show a finer run that stalls and is put back on
     its first-run surface; since the partial-volume level is sought in the
     scan's acquired samples, BENCHMARKS section 12, no organ of this grid
-    at n = 22-40, nor of the 3 mm scan at 16-40, reaches that path, nor the
-    next one, a finer run given up: neither has a data test now.)"""
+    at n = 22-40, nor of the 3 mm scan at 16-40, reaches that path. The
+    next one, a finer run given up, is the test below.)"""
     nib = pytest.importorskip("nibabel")
     import numpy as np
     import ffseg
@@ -297,5 +297,53 @@ def test_a_finer_run_from_the_first_runs_surface_is_the_same_in_the_tool_and_pyt
     sphere = (o["sphere"]["center_mm"], o["sphere"]["radius_mm"])
     masks = ffseg.segment(raw, img.affine, [sphere], mesh_resolution=22, rescale_slope=slope,
                           rescale_intercept=inter)
+    cli = np.asarray(nib.load(os.path.join(out, "labels.nii.gz")).dataobj) != 0
+    assert int(((masks[0] != 0) != cli).sum()) == 0
+
+
+def test_a_finer_run_that_stalls_and_cannot_be_put_back_is_given_up_in_the_tool_and_python(tmp_path):
+    """The right kidney (2) on the scan with its slices alone resampled to
+    1 mm (3 x 3 x 1 mm, `abdomen_ct.py --spacing 3x3x1`), from its protocol
+    sphere moved by half its radius along +z (`--jitter`'s fifth sphere,
+    the one that shows it): the first run rests at n = 12; at n = 49 it
+    stalls, and its n = 12 surface resampled to 49 crosses itself, so it
+    cannot be put back. The finer run is given up, said even with --quiet,
+    and the first run goes on at 12 from its mesh: the object ends no
+    smaller than its first run. segment() takes the same path, with a
+    RuntimeWarning, voxel for voxel."""
+    nib = pytest.importorskip("nibabel")
+    import warnings
+    import numpy as np
+    import ffseg
+    grid = abdomen_ct.resample(abdomen_ct.axis_factors("3x3x1"), str(tmp_path / "grid"))
+    ct, lab = os.path.join(grid, "ct.nii.gz"), os.path.join(grid, "labels.nii.gz")
+    probe = str(tmp_path / "probe")  # the protocol sphere, from one step
+    run_cli("segment", ct, "--sphere-from-label", f"{lab}:2", "--mesh-resolution", "12", "--max-steps", "1",
+            "--out", probe, "--quiet")
+    sp = json.load(open(os.path.join(probe, "report.json")))["objects"][0]["sphere"]
+    x, y, z, radius = abdomen_ct.moved_sphere(list(sp["center_mm"]) + [sp["radius_mm"]], 4)
+
+    out = str(tmp_path / "k2")
+    r = run_cli("segment", ct, "--sphere", f"{x!r},{y!r},{z!r},{radius!r}", "--mesh-resolution", "49",
+                "--out", out, "--quiet", check=False)
+    assert r.returncode == 0, r.stderr
+    assert "stalled at mesh resolution 49 and cannot be put back" in r.stderr
+    assert "the first run goes on at resolution 12" in r.stderr
+    rep = json.load(open(os.path.join(out, "report.json")))
+    o = rep["objects"][0]
+    assert rep["config"]["finer_run_given_up"] is True and rep["config"]["refined_from_first_run"] is False
+    assert rep["config"]["mesh_resolution"] == 12 and rep["passes"] == 3
+    assert o["kept_first_run_surface"] and not o["stalled"]
+    assert o["voxels"] >= o["first_run_voxels"]  # 36,789 against 35,452 measured
+
+    img = nib.load(ct)
+    raw = np.asarray(img.dataobj.get_unscaled())
+    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
+    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        masks = ffseg.segment(raw, img.affine, [((x, y, z), radius)], mesh_resolution=49, rescale_slope=slope,
+                              rescale_intercept=inter)
+    assert any(issubclass(w.category, RuntimeWarning) and "cannot be put back" in str(w.message) for w in caught)
     cli = np.asarray(nib.load(os.path.join(out, "labels.nii.gz")).dataobj) != 0
     assert int(((masks[0] != 0) != cli).sum()) == 0
