@@ -375,7 +375,8 @@ uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* 
     ts.face_new_partial = false;
     for (uint32_t f = 0; f < m.nfaces; ++f) flags[f] = face_offences_cached(m, f, xs, ts);
   } else {
-    // A face's tests read its own vertices and those of its edge neighbours.
+    // A face's tests read its own vertices and the cache of its higher edge
+    // neighbours (the fold across an edge is tested by the lower face).
     for (uint32_t f = 0; f < m.nfaces; ++f) {
       const uint32_t* q = m.faces + 4 * size_t(f);
       const int k = q[3] == kNone ? 3 : 4;
@@ -392,7 +393,7 @@ uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* 
       bool dirty = flags[f] & kDirty;
       for (int e = 0; e < k && !dirty; ++e) {
         const uint32_t g = m.fadj[4 * size_t(f) + e];
-        dirty = g != kNone && (flags[g] & kDirty);
+        dirty = g != kNone && g > f && (flags[g] & kDirty);
       }
       if (dirty) flags[f] = uint8_t((flags[f] & kDirty) | face_offences_cached(m, f, xs, ts));
     }
