@@ -33,8 +33,6 @@ bool RegionMap::holds(const VolumeView& vol, const double* x, uint32_t nv, doubl
   return true;
 }
 
-namespace {
-
 // Nearest voxel of index-space point p, false off the grid.
 bool nearest_voxel(const VolumeView& vol, const double p[3], int64_t q[3]) {
   const int64_t* D = vol.dims();
@@ -45,6 +43,8 @@ bool nearest_voxel(const VolumeView& vol, const double p[3], int64_t q[3]) {
   }
   return true;
 }
+
+namespace {
 
 constexpr int kSpeedTable = 4096;
 

@@ -109,6 +109,9 @@ RegionStatus compute_region(const CubeSphere& m, const double* x, const VolumeVi
                             double width_mm, FastMarching& fm, uint8_t* seed_mask, RegionMap& out, char* msg,
                             size_t msg_len);
 
+// Nearest voxel of index-space point p, false off the grid.
+bool nearest_voxel(const VolumeView& vol, const double p[3], int64_t q[3]);
+
 // Every object's region at once, for the ownership test: regions[i] for
 // object i < count (invalid ones own nothing and claim nothing).
 struct RegionSet {
@@ -131,10 +134,21 @@ struct RegionLimit {
   const VolumeView* vol = nullptr;
   uint32_t object = 0;
   // Whether the sample at index-space point p belongs to another object.
+  // A ray's samples lie half a voxel apart or closer, so most fall in the
+  // voxel of the sample before: its owner is kept (the regions do not
+  // change while a search holds the limit) instead of asked of every region
+  // again.
   bool foreign(const double p[3]) const {
-    const uint32_t o = set->owner_at(*vol, p);
-    return o != object && o != RegionSet::kNobody;
+    int64_t q[3];
+    if (!nearest_voxel(*vol, p, q)) return false;  // off the grid: nobody's
+    if (q[0] != last_[0] || q[1] != last_[1] || q[2] != last_[2]) {
+      for (int a = 0; a < 3; ++a) last_[a] = q[a];
+      last_owner_ = set->owner(q[0], q[1], q[2]);
+    }
+    return last_owner_ != object && last_owner_ != RegionSet::kNobody;
   }
+  mutable int64_t last_[3] = {-1, -1, -1};  // no voxel yet (voxels are >= 0)
+  mutable uint32_t last_owner_ = RegionSet::kNobody;
 };
 
 }  // namespace ffseg

@@ -229,19 +229,23 @@ void cache_face(const CubeSphere& m, uint32_t f, const double* x, double* n, uin
   }
 }
 
-// split_edge_normal() from the cache: the normal of the triangle of face f
-// (split alt, its normals n) holding the directed edge a -> b. A quad's
-// split keeps its orientation, and each of its edges lies in one triangle:
-// edges 0 and 1 in the first of the 0-2 split, 1 and 2 in the first of the
-// 1-3 split (face_split()), so the edge's place in the face decides.
-const double* cached_edge_normal(const CubeSphere& m, uint32_t f, bool alt, uint32_t a, uint32_t b,
-                                 const double* n) {
-  static const double kZero[3] = {0, 0, 0};
-  const uint32_t* q = m.faces + 4 * size_t(f);
-  const int k = q[3] == kNone ? 3 : 4;
-  for (int i = 0; i < k; ++i)
-    if (q[i] == a && q[(i + 1) % k] == b) return n + (k == 3 ? 0 : alt ? (i == 1 || i == 2 ? 0 : 3) : (i < 2 ? 0 : 3));
-  return kZero;
+// split_edge_normal() from the cache: of the cached normals n of face f
+// (split alt), the one of the triangle holding the face's edge i (from
+// corner i to the next). A quad's split keeps its orientation, and each of
+// its edges lies in one triangle: edges 0 and 1 in the first of the 0-2
+// split, 1 and 2 in the first of the 1-3 split (face_split()), so the
+// edge's place in the face decides.
+inline const double* cached_edge_normal(int k, bool alt, int i, const double* n) {
+  return n + (k == 3 ? 0 : alt ? (i == 1 || i == 2 ? 0 : 3) : (i < 2 ? 0 : 3));
+}
+
+// The place in face g of its directed edge a -> b, or -1.
+inline int edge_place(const CubeSphere& m, uint32_t g, uint32_t a, uint32_t b, int* k) {
+  const uint32_t* q = m.faces + 4 * size_t(g);
+  *k = q[3] == kNone ? 3 : 4;
+  for (int i = 0; i < *k; ++i)
+    if (q[i] == a && q[i + 1 < *k ? i + 1 : 0] == b) return i;
+  return -1;
 }
 
 uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, const TriangleScratch& ts) {
@@ -271,12 +275,15 @@ uint8_t face_offences_cached(const CubeSphere& m, uint32_t f, const double* xs, 
   for (int e = 0; e < k; ++e) {
     const uint32_t g = m.fadj[4 * size_t(f) + e];
     if (g == kNone || g < f) continue;  // each shared edge once
-    const uint32_t a = q[e], b = q[(e + 1) % k];
-    const double* nf = cached_edge_normal(m, f, alt_new, a, b, nn);
-    const double* ng = cached_edge_normal(m, g, ts.face_alt_new[g], b, a, ts.face_n_new + 6 * size_t(g));
+    // The shared edge runs a -> b in f (its edge e) and b -> a in g.
+    int kg = 0;
+    const int j = edge_place(m, g, q[(e + 1) % k], q[e], &kg);
+    static const double kZero[3] = {0, 0, 0};
+    const double* nf = cached_edge_normal(k, alt_new, e, nn);
+    const double* ng = j < 0 ? kZero : cached_edge_normal(kg, ts.face_alt_new[g], j, ts.face_n_new + 6 * size_t(g));
     if (!folded(nf, ng)) continue;
-    const double* of = cached_edge_normal(m, f, alt_old, a, b, no);
-    const double* og = cached_edge_normal(m, g, ts.face_alt_old[g], b, a, ts.face_n_old + 6 * size_t(g));
+    const double* of = cached_edge_normal(k, alt_old, e, no);
+    const double* og = j < 0 ? kZero : cached_edge_normal(kg, ts.face_alt_old[g], j, ts.face_n_old + 6 * size_t(g));
     if (new_fold(nf, ng, of, og)) bits |= uint8_t(kEdgeFold << e);
   }
   return bits;
@@ -368,7 +375,8 @@ uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* 
     ts.face_new_partial = false;
     for (uint32_t f = 0; f < m.nfaces; ++f) flags[f] = face_offences_cached(m, f, xs, ts);
   } else {
-    // A face's tests read its own vertices and those of its edge neighbours.
+    // A face's tests read its own vertices and the cache of its higher edge
+    // neighbours (the fold across an edge is tested by the lower face).
     for (uint32_t f = 0; f < m.nfaces; ++f) {
       const uint32_t* q = m.faces + 4 * size_t(f);
       const int k = q[3] == kNone ? 3 : 4;
@@ -385,7 +393,7 @@ uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* 
       bool dirty = flags[f] & kDirty;
       for (int e = 0; e < k && !dirty; ++e) {
         const uint32_t g = m.fadj[4 * size_t(f) + e];
-        dirty = g != kNone && (flags[g] & kDirty);
+        dirty = g != kNone && g > f && (flags[g] & kDirty);
       }
       if (dirty) flags[f] = uint8_t((flags[f] & kDirty) | face_offences_cached(m, f, xs, ts));
     }

@@ -447,14 +447,15 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
   };
   // A passing window proves every pair of its triangles, so the pairs of
   // clusters a and b need no test when some passing window holds both: a's
-  // or b's own, or that of a cluster of a's window.
+  // or b's own, or that of a cluster of a's window (b asked first: a is in
+  // the window of nearly every cluster of its own, by symmetry).
   auto covered = [&](uint32_t a, uint32_t b) {
     if (!c.is_failed[a] && c.neighbours(a, b)) return true;
     if (!c.is_failed[b] && c.neighbours(b, a)) return true;
     const uint32_t* w = c.nb + size_t(PatchCertificate::kMaxNeighbours) * a;
     for (uint32_t k = 0; k < c.nb_cnt[a]; ++k) {
       const uint32_t e = w[k];
-      if (!c.is_failed[e] && c.neighbours(e, a) && c.neighbours(e, b)) return true;
+      if (!c.is_failed[e] && c.neighbours(e, b) && c.neighbours(e, a)) return true;
     }
     return false;
   };
