@@ -196,10 +196,10 @@ struct Parser {
         case 'r': *o += '\r'; break;
         case 't': *o += '\t'; break;
         case 'u': {
-          uint32_t cp;
+          uint32_t cp = 0;  // hex4 sets it before any read (GCC at -O3 warns it may not)
           if (!hex4(&cp)) return false;
           if (cp >= 0xD800 && cp < 0xDC00) {
-            uint32_t lo;
+            uint32_t lo = 0;
             if (!lit("\\u") || !hex4(&lo) || lo < 0xDC00 || lo >= 0xE000)
               return fail("unpaired surrogate");
             cp = 0x10000 + ((cp - 0xD800) << 10) + (lo - 0xDC00);
