@@ -293,10 +293,4 @@ uint32_t RegionSet::owner(int64_t i, int64_t j, int64_t k) const {
 
 bool RegionSet::owns(uint32_t object, int64_t i, int64_t j, int64_t k) const { return owner(i, j, k) == object; }
 
-uint32_t RegionSet::owner_at(const VolumeView& vol, const double p[3]) const {
-  int64_t q[3];
-  if (!nearest_voxel(vol, p, q)) return kNobody;
-  return owner(q[0], q[1], q[2]);
-}
-
 }  // namespace ffseg

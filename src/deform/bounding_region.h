@@ -121,8 +121,6 @@ struct RegionSet {
   // The object owning voxel (i, j, k), or kNobody.
   uint32_t owner(int64_t i, int64_t j, int64_t k) const;
   bool owns(uint32_t object, int64_t i, int64_t j, int64_t k) const;
-  // At index-space point p (nearest voxel centre): kNobody off the grid.
-  uint32_t owner_at(const VolumeView& vol, const double p[3]) const;
 };
 
 // A search's view of the regions (thesis 6.3): a sample that another

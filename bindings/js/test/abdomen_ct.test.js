@@ -9,7 +9,7 @@
 const test = require("node:test");
 const assert = require("node:assert");
 const os = require("os");
-const { execFileSync } = require("child_process");
+const { execFileSync, spawnSync } = require("child_process");
 const { ROOT, load, readNifti, labelMapDiffers, runsText, fs, path } = require("./helpers.js");
 
 const DATA = process.env.FFSEG_ABDOMEN_CT || path.join(ROOT, "..", "shared", "data", "abdomen_ct");
@@ -71,7 +71,7 @@ test("the right kidney on 3 x 3 x 1 mm at n = 49: the finer run given up in the 
     const s = JSON.parse(fs.readFileSync(path.join(probe, "report.json"), "utf8")).objects[0].sphere;
     const centre = [s.center_mm[0], s.center_mm[1], s.center_mm[2] + s.radius_mm / 2];  // --jitter's fifth
     const dir = path.join(out, "k2");
-    const r = require("child_process").spawnSync(CLI, ["segment", ct, "--sphere", [...centre, s.radius_mm].join(","),
+    const r = spawnSync(CLI, ["segment", ct, "--sphere", [...centre, s.radius_mm].join(","),
       "--mesh-resolution", "49", "--out", dir, "--quiet"], { encoding: "utf8" });
     assert.strictEqual(r.status, 0, r.stderr);
     assert.match(r.stderr, /cannot be put back/);

@@ -15,6 +15,16 @@ sys.path.insert(0, os.path.dirname(HERE))  # bindings/python: `import ffseg` fro
 MRI = "/usr/share/mricron/templates"
 
 
+def stored_values(img):
+    """A nibabel image's voxels as stored, with the slope and intercept the
+    tool applies (1 and 0 where the header leaves them undefined): what
+    ffseg.segment() takes to read the volume as the tool does."""
+    raw = np.asarray(img.dataobj.get_unscaled())
+    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
+    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    return raw, slope, inter
+
+
 def cli_path():
     p = os.environ.get("FFSEG_CLI") or os.path.join(ROOT, "build", "ffseg")
     if not os.path.exists(p):

@@ -16,7 +16,7 @@ import sys
 
 import pytest
 
-from conftest import ROOT, run_cli
+from conftest import ROOT, run_cli, stored_values
 
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
 import abdomen_ct  # noqa: E402
@@ -254,9 +254,7 @@ def test_python_segment_places_a_refused_first_run_mesh_scaled_as_the_tool_does(
     assert any(s is not None and s < 1 for s in scales), scales  # the vena cava: 0.99
 
     img = nib.load(os.path.join(abdomen_ct.DATA, "ct.nii.gz"))
-    raw = np.asarray(img.dataobj.get_unscaled())
-    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
-    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    raw, slope, inter = stored_values(img)
     spheres = [(o["sphere"]["center_mm"], o["sphere"]["radius_mm"]) for o in rep["objects"]]
     masks = ffseg.segment(raw, img.affine, spheres, mesh_resolution=22, rescale_slope=slope, rescale_intercept=inter)
     cli = np.asarray(nib.load(os.path.join(out, "labels.nii.gz")).dataobj)
@@ -291,9 +289,7 @@ def test_a_finer_run_from_the_first_runs_surface_is_the_same_in_the_tool_and_pyt
     assert o["voxels"] >= o["first_run_voxels"]
 
     img = nib.load(os.path.join(grid_1mm, "ct.nii.gz"))
-    raw = np.asarray(img.dataobj.get_unscaled())
-    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
-    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    raw, slope, inter = stored_values(img)
     sphere = (o["sphere"]["center_mm"], o["sphere"]["radius_mm"])
     masks = ffseg.segment(raw, img.affine, [sphere], mesh_resolution=22, rescale_slope=slope,
                           rescale_intercept=inter)
@@ -337,9 +333,7 @@ def test_a_finer_run_that_stalls_and_cannot_be_put_back_is_given_up_in_the_tool_
     assert o["voxels"] >= o["first_run_voxels"]  # 36,789 against 35,452 measured
 
     img = nib.load(ct)
-    raw = np.asarray(img.dataobj.get_unscaled())
-    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
-    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    raw, slope, inter = stored_values(img)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         masks = ffseg.segment(raw, img.affine, [((x, y, z), radius)], mesh_resolution=49, rescale_slope=slope,

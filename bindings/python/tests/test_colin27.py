@@ -5,7 +5,7 @@ import os
 
 import numpy as np
 
-from conftest import MRI, need_mricron, run_cli
+from conftest import MRI, need_mricron, run_cli, stored_values
 
 import ffseg
 
@@ -34,9 +34,7 @@ def test_python_matches_the_cli_on_colin27(tmp_path):
     sphere = report["objects"][0]["sphere"]
 
     img = nibabel.load(f"{MRI}/ch2.nii.gz")
-    raw = np.asarray(img.dataobj.get_unscaled())
-    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
-    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    raw, slope, inter = stored_values(img)
     np.testing.assert_allclose(img.affine, np.array(report["input"]["index_to_world"]), atol=1e-6)
     masks, meshes = ffseg.segment(raw, img.affine, [(sphere["center_mm"], sphere["radius_mm"])],
                                   target_mode="intensity", mesh_resolution=12, max_steps=200,
@@ -78,9 +76,7 @@ def test_python_makes_the_tools_runs_at_a_fine_resolution_eight_nuclei(tmp_path)
     assert "first run" in {o["started_from"] for o in report["objects"]}
 
     img = nibabel.load(f"{MRI}/ch2.nii.gz")
-    raw = np.asarray(img.dataobj.get_unscaled())
-    slope = img.dataobj.slope if np.isfinite(img.dataobj.slope) and img.dataobj.slope != 0 else 1.0
-    inter = img.dataobj.inter if np.isfinite(img.dataobj.inter) else 0.0
+    raw, slope, inter = stored_values(img)
     spheres = [(o["sphere"]["center_mm"], o["sphere"]["radius_mm"]) for o in report["objects"]]
     masks = ffseg.segment(raw, img.affine, spheres, mesh_resolution=33, rescale_slope=slope, rescale_intercept=inter)
     cli = np.asarray(nibabel.load(str(out / "labels.nii.gz")).dataobj)
