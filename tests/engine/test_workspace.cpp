@@ -87,10 +87,13 @@ TEST_CASE("workspace: pinned sizes of a few configurations (default max_roi_voxe
   // Then each object keeps its first crop's acquisition scale (8 B in its
   // record, object.h): +64 B for 8 objects; the one-object engines' records
   // keep their rounded size.
-  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 231381504u);
-  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20072448u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 39632192u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 21699904u);
+  // Then each object's crop keeps the bounds its samplers read as doubles
+  // (96 B in its record, smoothing.h), converted once per crop instead of at
+  // every sample: +768 B for 8 objects, +64 B for one.
+  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 231382272u);
+  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20072512u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 39632256u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 21699968u);
 }
 
 TEST_CASE("workspace: grey-level buffers are per object and only in intensity configurations") {
