@@ -44,16 +44,17 @@ inline void vertex_box(const double* x, uint32_t nv, double eps, double* lo, dou
   hi[2] = h2 + eps;
 }
 
-// Per vertex, on which sides of the box [lo, hi] it lies (bits: below, above
-// per axis): the box of a face misses the box exactly when the codes of its
-// vertices share a bit.
+// On which sides of the box [lo, hi] point p lies (bits: below, above per
+// axis); outcodes(): every vertex's. The box of a face misses the box
+// exactly when the codes of its vertices share a bit.
+inline uint8_t outcode(const double* p, const double* lo, const double* hi) {
+  return uint8_t(int(p[0] < lo[0]) | int(p[0] > hi[0]) << 1 | int(p[1] < lo[1]) << 2 | int(p[1] > hi[1]) << 3 |
+                 int(p[2] < lo[2]) << 4 | int(p[2] > hi[2]) << 5);
+}
+
 inline void outcodes(const double* x, uint32_t nv, const double* lo, const double* hi, uint8_t* code) {
-  const double l0 = lo[0], l1 = lo[1], l2 = lo[2], h0 = hi[0], h1 = hi[1], h2 = hi[2];
-  for (uint32_t v = 0; v < nv; ++v) {
-    const double* p = x + 3 * size_t(v);
-    code[v] = uint8_t(int(p[0] < l0) | int(p[0] > h0) << 1 | int(p[1] < l1) << 2 | int(p[1] > h1) << 3 |
-                      int(p[2] < l2) << 4 | int(p[2] > h2) << 5);
-  }
+  const double l[3] = {lo[0], lo[1], lo[2]}, h[3] = {hi[0], hi[1], hi[2]};
+  for (uint32_t v = 0; v < nv; ++v) code[v] = outcode(x + 3 * size_t(v), l, h);
 }
 
 // Whether face f's box meets the box of the codes.
@@ -409,16 +410,33 @@ uint32_t contact_zone(const CubeSphere& m, const double* x, ContactScratch& s, d
   return near;
 }
 
-// s.qcode: per vertex of x, its outcodes against the zone widened by eps
-// (a face whose box, widened by eps, misses it has no triangle to test).
-void zone_codes(const CubeSphere& m, const double* x, ContactScratch& s, const double zlo[3], const double zhi[3]) {
-  double wlo[3], whi[3];
-  for (int a = 0; a < 3; ++a) {
-    wlo[a] = zlo[a] - s.eps;
-    whi[a] = zhi[a] + s.eps;
+// Which faces of x meet the zone widened by eps (a face whose box, widened
+// by eps, misses it has no triangle to test): face_meets() on its vertices'
+// outcodes. Swept, the reach filter leaves few faces to ask about, and
+// their own vertices' codes are computed as asked (the same comparisons);
+// otherwise every face is asked, and s.qcode holds every vertex's.
+struct ZoneFaces {
+  const CubeSphere& m;
+  const double* x;
+  const ContactScratch& s;
+  double lo[3], hi[3];
+  ZoneFaces(const CubeSphere& mesh, const double* pos, ContactScratch& sc, const double zlo[3], const double zhi[3])
+      : m(mesh), x(pos), s(sc) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = zlo[a] - sc.eps;
+      hi[a] = zhi[a] + sc.eps;
+    }
+    if (!sc.swept) outcodes(x, m.nv, lo, hi, sc.qcode);
   }
-  outcodes(x, m.nv, wlo, whi, s.qcode);
-}
+  bool meets(uint32_t f) const {
+    if (!s.swept) return face_meets(m, f, s.qcode);
+    const uint32_t* q = m.faces + 4 * size_t(f);
+    uint8_t c = uint8_t(outcode(x + 3 * size_t(q[0]), lo, hi) & outcode(x + 3 * size_t(q[1]), lo, hi) &
+                        outcode(x + 3 * size_t(q[2]), lo, hi));
+    if (q[3] != kNone) c &= outcode(x + 3 * size_t(q[3]), lo, hi);
+    return c == 0;
+  }
+};
 
 // Calls hit(t, u) for every pair of a triangle t of x's face f (boxed by
 // prepare_face()) and an obstacle triangle u that cross, while hit returns
@@ -543,11 +561,11 @@ uint32_t contacts_full(const CubeSphere& m, const double* x, ContactScratch& s, 
     s.tracked = record;
     return 0;
   }
-  zone_codes(m, x, s, zlo, zhi);
+  const ZoneFaces zone(m, x, s, zlo, zhi);
   uint32_t count = 0;
   bool room = true;
   for (uint32_t f = 0; f < m.nfaces; ++f) {
-    if ((s.swept && !s.reach[f]) || !face_meets(m, f, s.qcode)) continue;
+    if ((s.swept && !s.reach[f]) || !zone.meets(f)) continue;
     prepare_face(m, x, s, f, alt);
     const bool stop = face_contacts(m, x, s, near, f, [&](uint32_t t, uint32_t u) {
       ++count;
@@ -607,10 +625,10 @@ uint32_t mark_contacts_tracked(const CubeSphere& m, const double* x, ContactScra
     mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
   }
   s.npairs = kept;
-  zone_codes(m, x, s, zlo, zhi);
+  const ZoneFaces zone(m, x, s, zlo, zhi);
   bool room = true;
   for (uint32_t f = 0; f < m.nfaces && room; ++f) {
-    if ((s.swept && !s.reach[f]) || !face_moved(m, f, moved) || !face_meets(m, f, s.qcode)) continue;
+    if ((s.swept && !s.reach[f]) || !face_moved(m, f, moved) || !zone.meets(f)) continue;
     prepare_face(m, x, s, f, alt);
     face_contacts(m, x, s, near, f, [&](uint32_t t, uint32_t u) {
       if (!(room = s.npairs < s.pair_cap)) return true;
