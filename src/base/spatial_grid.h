@@ -224,6 +224,13 @@ class BoxGrid : public CellTable {
   // the cell size set.
   template <class Keep>
   void build(const double* lo, const double* hi, uint32_t count, Keep&& keep);
+  // The same for the boxes ids[0..count) (ascending), entered when they fit:
+  // build() over the ids that keep() passes, without asking about the others.
+  void build_from(const double* lo, const double* hi, const uint32_t* ids, uint32_t count) {
+    build_each(lo, hi, [&](auto&& enter) {
+      for (uint32_t j = 0; j < count; ++j) enter(ids[j]);
+    });
+  }
 
   double cell_size() const { return h_; }
   bool fits(const double* lo, const double* hi) const {
@@ -407,14 +414,26 @@ class BoxGrid : public CellTable {
   // cell is the box's low cell (ids stay below 2^29).
   static constexpr int kLowShift = 29;
   static constexpr uint32_t kIdMask = (1u << kLowShift) - 1;
+
+  // The build over the boxes each(enter) names, enter(i) for each i in
+  // ascending order (twice: the count and the scatter).
+  template <class Each>
+  void build_each(const double* lo, const double* hi, Each&& each);
 };
 
 template <class Keep>
 void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& keep) {
+  build_each(lo, hi, [&](auto&& enter) {
+    for (uint32_t i = 0; i < count; ++i)
+      if (keep(i)) enter(i);
+  });
+}
+
+template <class Each>
+void BoxGrid::build_each(const double* lo, const double* hi, Each&& each) {
   clear_counts();
   // Per box: its cell range, whether it fits (at most two cells per axis).
   auto range = [&](uint32_t i, int64_t* a, int64_t* b) {
-    if (!keep(i)) return false;
     for (int k = 0; k < 3; ++k) {
       a[k] = cell(lo[3 * size_t(i) + k]);
       b[k] = cell(hi[3 * size_t(i) + k]);
@@ -423,15 +442,15 @@ void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& k
     return true;
   };
   int64_t a[3], b[3];
-  for (uint32_t i = 0; i < count; ++i) {
-    if (!range(i, a, b)) continue;
+  each([&](uint32_t i) {
+    if (!range(i, a, b)) return;
     for (int64_t z = a[2]; z <= b[2]; ++z)
       for (int64_t y = a[1]; y <= b[1]; ++y)
         for (int64_t x = a[0]; x <= b[0]; ++x) ++start_[hash(x, y, z) + 1];
-  }
+  });
   starts();
-  for (uint32_t i = 0; i < count; ++i) {
-    if (!range(i, a, b)) continue;
+  each([&](uint32_t i) {
+    if (!range(i, a, b)) return;
     for (int64_t z = a[2]; z <= b[2]; ++z)
       for (int64_t y = a[1]; y <= b[1]; ++y)
         for (int64_t x = a[0]; x <= b[0]; ++x) {
@@ -439,7 +458,7 @@ void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& k
           ids_[k] = i | (uint32_t(x == a[0]) | uint32_t(y == a[1]) << 1 | uint32_t(z == a[2]) << 2) << kLowShift;
           key_[k] = pack(x, y, z);
         }
-  }
+  });
   restore();
 }
 

@@ -192,7 +192,7 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   box = a.alloc<double>(size_t(6) * max_obst);
   state = a.alloc<uint8_t>(max_obst);
   fdone = a.alloc<uint8_t>(size_t(m.nfaces) * max_obst);
-  tri_set = a.alloc<uint8_t>(total);
+  entered = a.alloc<uint32_t>(total);
   tris = a.alloc<uint32_t>(3 * total);
   lo = a.alloc<double>(3 * total);
   hi = a.alloc<double>(3 * total);
@@ -234,7 +234,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     }
   }
   double emean = 0, extent = 0;
-  size_t entered = 0;
+  s.nentered = 0;
   for (uint32_t k = 0; k < s.count; ++k) {
     s.pos[k] = xs[k];
     double* b = s.box + 6 * size_t(k);
@@ -253,28 +253,30 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
       for (int i = 0; i < c; ++i) {
         const size_t g = 3 * (t0 + i);
         emean += (s.hi[g] - s.lo[g]) + (s.hi[g + 1] - s.lo[g + 1]) + (s.hi[g + 2] - s.lo[g + 2]);
+        s.entered[s.nentered++] = uint32_t(t0 + i);
       }
-      entered += size_t(c);
     }
   }
+  const uint32_t entered = s.nentered;
   s.nbig = 0;
   s.eps = 0;
   if (entered == 0) {
     s.grid.set_cell_size(1);
     s.grid.size_table(0);
-    s.grid.build(s.lo, s.hi, 0, [](uint32_t) { return false; });
+    s.grid.build_from(s.lo, s.hi, s.entered, 0);
     return;
   }
   emean /= 3.0 * double(entered);
   // Candidates: boxes that overlap, each widened by a hair against rounding
   // (the query mesh's by the same).
   s.eps = std::isfinite(emean + extent) ? 1e-9 * (emean + extent) : 0.0;
-  for_each_done(m, s, [&](uint32_t t) {
+  for (uint32_t j = 0; j < entered; ++j) {
+    const size_t t = s.entered[j];
     for (int a = 0; a < 3; ++a) {
-      s.lo[3 * size_t(t) + a] -= s.eps;
-      s.hi[3 * size_t(t) + a] += s.eps;
+      s.lo[3 * t + a] -= s.eps;
+      s.hi[3 * t + a] += s.eps;
     }
-  });
+  }
   for (uint32_t k = 0; k < s.count; ++k)
     for (int a = 0; a < 3; ++a) {
       s.box[6 * size_t(k) + a] -= s.eps;
@@ -288,23 +290,19 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     s.grid.set_cell_size(h);
     s.nbig = 0;
     bool over = false;
-    for_each_done(m, s, [&](uint32_t t) {
-      if (over || s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t))) return;
+    for (uint32_t j = 0; j < entered && !over; ++j) {
+      const uint32_t t = s.entered[j];
+      if (s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t))) continue;
       if (s.nbig == s.big_cap) over = true;
       else s.big[s.nbig++] = t;
-    });
+    }
     if (!over) break;
     h *= 2;
   }
-  // The grids' builds ask about every triangle id twice: a flag per id
-  // answers which ones were set up and which of these are big (the cell
-  // arithmetic of fits() is most of a build's cost).
-  const uint32_t total = nt * s.count;
-  for (uint32_t t = 0; t < total; ++t) s.tri_set[t] = 0;
-  for_each_done(m, s, [&](uint32_t t) { s.tri_set[t] = 1; });
-  for (uint32_t j = 0; j < s.nbig; ++j) s.tri_set[s.big[j]] = 2;
-  s.grid.size_table(uint32_t(entered));
-  s.grid.build(s.lo, s.hi, total, [&](uint32_t t) { return s.tri_set[t] == 1; });
+  // The grid enters the triangles set up that fit its cells; the big ones
+  // (listed in ascending order, as entered) go to their own.
+  s.grid.size_table(entered);
+  s.grid.build_from(s.lo, s.hi, s.entered, entered);
   // The big ones at cells as wide as the widest of them (each then spans at
   // most two per axis).
   double wide = 2 * h;
@@ -314,7 +312,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
   s.big_fit = true;
   for (uint32_t j = 0; j < s.nbig; ++j)
     s.big_fit = s.big_fit && s.big_grid.fits(s.lo + 3 * size_t(s.big[j]), s.hi + 3 * size_t(s.big[j]));
-  s.big_grid.build(s.lo, s.hi, s.big_fit && s.nbig ? total : 0, [&](uint32_t t) { return s.tri_set[t] == 2; });
+  s.big_grid.build_from(s.lo, s.hi, s.big, s.big_fit ? s.nbig : 0);
 }
 
 
