@@ -326,17 +326,40 @@ bool violates(const CubeSphere& m, const double* xs, TriangleScratch& ts, Contac
          mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) > 0;
 }
 
-// share[v] held within kTaper of each neighbour's. Inlined into the sweeps
-// (four per round over every vertex), the minimum kept in a register: a
-// neighbour is never v itself, so the same values.
-inline __attribute__((always_inline)) void relax(const CubeSphere& m, double* share, size_t v) {
+// share[v] held within kTaper of each neighbour's, the minimum kept in a
+// register: a neighbour is never v itself, so the same values. A vertex
+// relaxed since its neighbours' shares last fell is within kTaper of each
+// (shares only fall during a guard call, and start equal), and relaxing it
+// again changes nothing; unsettled[v] marks the others. So the sweeps relax
+// those alone, in the same order, with the same values, and a share that
+// falls unsettles its neighbours.
+inline __attribute__((always_inline)) void relax(const CubeSphere& m, double* share, uint8_t* unsettled, size_t v) {
+  if (!unsettled[v]) return;
+  unsettled[v] = 0;
   const uint32_t* nb = m.nbr + 4 * v;
   double sv = share[v];
   for (int k = 0; k < 4; ++k) {
     const double lim = share[nb[k]] + kTaper;
     sv = sv > lim ? lim : sv;
   }
+  if (sv == share[v]) return;
   share[v] = sv;
+  for (int k = 0; k < 4; ++k) unsettled[nb[k]] = 1;
+}
+
+// Two forward and backward sweeps of relax() over the unsettled vertices.
+void relax_sweeps(const CubeSphere& m, double* share, uint8_t* unsettled) {
+  const size_t nv = m.nv;
+  for (int sweep = 0; sweep < 2; ++sweep) {
+    for (size_t v = 0; v < nv; ++v) relax(m, share, unsettled, v);
+    for (size_t v = nv; v-- > 0;) relax(m, share, unsettled, v);
+  }
+}
+
+// A vertex's share fell (or may have): its neighbours are unsettled.
+inline void unsettle_around(const CubeSphere& m, uint8_t* unsettled, size_t v) {
+  const uint32_t* nb = m.nbr + 4 * v;
+  for (int k = 0; k < 4; ++k) unsettled[nb[k]] = 1;
 }
 
 bool same_bits(double a, double b) {
@@ -516,21 +539,27 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // (ts.vertex_marks); the first round marks from scratch.
   uint8_t* moved = ts.vertex_flags;
   bool tracked = false;  // mark_all's first intersection test is from scratch
+  // The rounds' marks are read where mark_all() leaves them (ts.vertex_marks);
+  // mark holds the relax sweeps' unsettled vertices, none while the shares
+  // are all equal.
+  uint8_t* unsettled = mark;
+  if (!clean)
+    for (size_t v = 0; v < nv; ++v) unsettled[v] = 0;
   for (int round = 0; round < kLocalRounds && !clean; ++round) {
     if (round == 0) mark_all(m, x_old, xs, nullptr, ts, &tracked, obstacles);
-    for (size_t v = 0; v < nv; ++v) mark[v] = ts.vertex_marks[v];
+    const uint8_t* marked = ts.vertex_marks;
     for (size_t v = 0; v < nv; ++v) {
-      grow[v] = mark[v];
-      if (!mark[v]) continue;
+      grow[v] = marked[v];
+      if (!marked[v]) continue;
       const uint32_t* nb = m.nbr + 4 * v;
       for (int k = 0; k < 4; ++k) grow[nb[k]] = 1;
     }
     for (size_t v = 0; v < nv; ++v)
-      if (grow[v]) share[v] = share[v] * 0.5 < kMinShare ? 0.0 : share[v] * 0.5;
-    for (int sweep = 0; sweep < 2; ++sweep) {
-      for (size_t v = 0; v < nv; ++v) relax(m, share, v);
-      for (size_t v = nv; v-- > 0;) relax(m, share, v);
-    }
+      if (grow[v]) {
+        share[v] = share[v] * 0.5 < kMinShare ? 0.0 : share[v] * 0.5;
+        unsettle_around(m, unsettled, v);
+      }
+    relax_sweeps(m, share, unsettled);
     blend(nv, x_old, x_new, 1.0, share, xs, moved);
     clean = mark_all(m, x_old, xs, moved, ts, &tracked, obstacles) == 0;
   }
@@ -546,17 +575,18 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // as a clean local round is: a check from scratch after it cost the 1 mm
   // liver's jammed steps 17-19 ms each and never found anything.
   for (int round = 0; round < kFreezeRounds && !clean; ++round) {
-    for (size_t v = 0; v < nv; ++v) mark[v] = ts.vertex_marks[v];
+    const uint8_t* marked = ts.vertex_marks;
     for (size_t v = 0; v < nv; ++v) {
-      if (!mark[v]) continue;
+      if (!marked[v]) continue;
       share[v] = 0;
+      unsettle_around(m, unsettled, v);
       const uint32_t* nb = m.nbr + 4 * v;
-      for (int k = 0; k < 4; ++k) share[nb[k]] = 0;
+      for (int k = 0; k < 4; ++k) {
+        share[nb[k]] = 0;
+        unsettle_around(m, unsettled, nb[k]);
+      }
     }
-    for (int sweep = 0; sweep < 2; ++sweep) {
-      for (size_t v = 0; v < nv; ++v) relax(m, share, v);
-      for (size_t v = nv; v-- > 0;) relax(m, share, v);
-    }
+    relax_sweeps(m, share, unsettled);
     blend(nv, x_old, x_new, 1.0, share, xs, moved);
     clean = mark_all(m, x_old, xs, moved, ts, &tracked, obstacles) == 0;
   }
