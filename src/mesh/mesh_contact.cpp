@@ -601,12 +601,13 @@ uint32_t mark_contacts_tracked(const CubeSphere& m, const double* x, ContactScra
   if (!moved || !s.tracked) return contacts_full(m, x, s, mark, alt, true);
   if (s.count == 0) return 0;
   const uint32_t nt = s.nt;
-  // The faces around moved vertices are split and boxed again when met.
-  for (uint32_t f = 0; f < m.nfaces; ++f)
-    if (face_moved(m, f, moved)) s.qface[f] = 0;
+  // The faces around moved vertices are split and boxed again when met
+  // (their qface cleared by the walk below, which passes every face).
   double xlo[3], xhi[3], zlo[3], zhi[3];
   const uint32_t near = contact_zone(m, x, s, xlo, xhi, zlo, zhi);
   if (near == 0) {
+    for (uint32_t f = 0; f < m.nfaces; ++f)
+      if (face_moved(m, f, moved)) s.qface[f] = 0;
     s.npairs = 0;
     return 0;
   }
@@ -626,7 +627,9 @@ uint32_t mark_contacts_tracked(const CubeSphere& m, const double* x, ContactScra
   const ZoneFaces zone(m, x, s, zlo, zhi);
   bool room = true;
   for (uint32_t f = 0; f < m.nfaces && room; ++f) {
-    if ((s.swept && !s.reach[f]) || !face_moved(m, f, moved) || !zone.meets(f)) continue;
+    if (!face_moved(m, f, moved)) continue;
+    s.qface[f] = 0;
+    if ((s.swept && !s.reach[f]) || !zone.meets(f)) continue;
     prepare_face(m, x, s, f, alt);
     face_contacts(m, x, s, near, f, [&](uint32_t t, uint32_t u) {
       if (!(room = s.npairs < s.pair_cap)) return true;
