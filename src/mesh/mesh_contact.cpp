@@ -332,10 +332,14 @@ bool box_meets_obstacles(const ContactScratch& s, const double* lo, const double
   auto meets = [&](uint32_t u) {
     return detail::boxes_overlap(lo, hi, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u));
   };
-  if (s.grid.cells(lo, hi) > kMaxQueryCells) return true;
-  if (s.grid.any_entry(lo, hi, meets)) return true;
+  const BoxGrid::Range r = s.grid.range_of(lo, hi);
+  if (BoxGrid::count(r) > kMaxQueryCells) return true;
+  if (s.grid.any_entry(r, meets)) return true;
   if (s.nbig == 0) return false;
-  if (s.big_fit && s.big_grid.cells(lo, hi) <= kMaxQueryCells) return s.big_grid.any_entry(lo, hi, meets);
+  if (s.big_fit) {
+    const BoxGrid::Range rb = s.big_grid.range_of(lo, hi);
+    if (BoxGrid::count(rb) <= kMaxQueryCells) return s.big_grid.any_entry(rb, meets);
+  }
   for (uint32_t j = 0; j < s.nbig; ++j)
     if (meets(s.big[j])) return true;
   return false;
@@ -484,16 +488,18 @@ bool face_contacts(const CubeSphere& m, const double* x, const ContactScratch& s
   // Each obstacle triangle once: in the cell holding the low corner of the
   // intersection of its box and the face's (it lies in both boxes' cells),
   // told by the entries' low-cell bits before their boxes are read.
-  auto query = [&](const BoxGrid& g) {
-    g.for_each_owned_entry(lf, hf, [&](uint32_t u) {
+  auto query = [&](const BoxGrid& g, const BoxGrid::Range& r) {
+    g.for_each_owned_entry(r, [&](uint32_t u) {
       if (!stop && detail::boxes_overlap(lf, hf, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
     });
   };
-  if (s.grid.cells(lf, hf) <= kMaxQueryCells) {
-    query(s.grid);
+  const BoxGrid::Range r = s.grid.range_of(lf, hf);
+  if (BoxGrid::count(r) <= kMaxQueryCells) {
+    query(s.grid, r);
     if (s.nbig == 0 || stop) return stop;
-    if (s.big_fit && s.big_grid.cells(lf, hf) <= kMaxQueryCells) {
-      query(s.big_grid);
+    const BoxGrid::Range rb = s.big_fit ? s.big_grid.range_of(lf, hf) : r;
+    if (s.big_fit && BoxGrid::count(rb) <= kMaxQueryCells) {
+      query(s.big_grid, rb);
     } else {
       for (uint32_t j = 0; j < s.nbig && !stop; ++j) {
         const uint32_t u = s.big[j];
