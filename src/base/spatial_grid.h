@@ -28,6 +28,25 @@ inline int64_t floor_i64(double v) {
 class CellTable {
  public:
   int64_t cell(double v) const { return floor_i64(v * inv_h_); }
+  // The cells a box overlaps, a[k]..b[k] per axis: a query that first asks
+  // how many (count()) and then visits them computes them once.
+  struct Range {
+    int64_t a[3], b[3];
+  };
+  Range range_of(const double* lo, const double* hi) const {
+    Range r;
+    for (int k = 0; k < 3; ++k) {
+      r.a[k] = cell(lo[k]);
+      r.b[k] = cell(hi[k]);
+    }
+    return r;
+  }
+  // Number of cells (as a double: may be huge).
+  static double count(const Range& r) {
+    double c = 1;
+    for (int k = 0; k < 3; ++k) c *= double(r.b[k] - r.a[k] + 1);
+    return c;
+  }
   // Buckets for the next build: at least 2 * cells (as carved for the most),
   // fewer when a build enters far fewer than the most (the grid of the
   // obstacles a step meets): every build pass and lookup then walks a table
@@ -56,25 +75,28 @@ class CellTable {
   // Whether pred(x, y, z) holds for some cell the box [lo, hi] overlaps;
   // stops at the first.
   template <class P>
-  bool any_cell_of(const double* lo, const double* hi, P&& pred) const {
-    int64_t a[3], b[3];
-    for (int k = 0; k < 3; ++k) {
-      a[k] = cell(lo[k]);
-      b[k] = cell(hi[k]);
-    }
-    for (int64_t z = a[2]; z <= b[2]; ++z)
-      for (int64_t y = a[1]; y <= b[1]; ++y)
-        for (int64_t x = a[0]; x <= b[0]; ++x)
+  bool any_cell_of(const Range& r, P&& pred) const {
+    for (int64_t z = r.a[2]; z <= r.b[2]; ++z)
+      for (int64_t y = r.a[1]; y <= r.b[1]; ++y)
+        for (int64_t x = r.a[0]; x <= r.b[0]; ++x)
           if (pred(x, y, z)) return true;
     return false;
   }
+  template <class P>
+  bool any_cell_of(const double* lo, const double* hi, P&& pred) const {
+    return any_cell_of(range_of(lo, hi), pred);
+  }
   // Calls f(x, y, z) for every cell the box [lo, hi] overlaps.
   template <class F>
-  void for_each_cell_of(const double* lo, const double* hi, F&& f) const {
-    any_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+  void for_each_cell_of(const Range& r, F&& f) const {
+    any_cell_of(r, [&](int64_t x, int64_t y, int64_t z) {
       f(x, y, z);
       return false;
     });
+  }
+  template <class F>
+  void for_each_cell_of(const double* lo, const double* hi, F&& f) const {
+    for_each_cell_of(range_of(lo, hi), f);
   }
   // Counting sort: clear, ++start_[bucket + 1] per entry, then starts(),
   // then ids_[start_[bucket]++] = id per entry, then restore().
@@ -224,6 +246,13 @@ class BoxGrid : public CellTable {
   // the cell size set.
   template <class Keep>
   void build(const double* lo, const double* hi, uint32_t count, Keep&& keep);
+  // The same for the boxes ids[0..count) (ascending), entered when they fit:
+  // build() over the ids that keep() passes, without asking about the others.
+  void build_from(const double* lo, const double* hi, const uint32_t* ids, uint32_t count) {
+    build_each(lo, hi, [&](auto&& enter) {
+      for (uint32_t j = 0; j < count; ++j) enter(ids[j]);
+    });
+  }
 
   double cell_size() const { return h_; }
   bool fits(const double* lo, const double* hi) const {
@@ -232,11 +261,7 @@ class BoxGrid : public CellTable {
     return true;
   }
   // Number of cells the box [lo, hi] overlaps (as a double: may be huge).
-  double cells(const double* lo, const double* hi) const {
-    double c = 1;
-    for (int a = 0; a < 3; ++a) c *= double(cell(hi[a]) - cell(lo[a]) + 1);
-    return c;
-  }
+  double cells(const double* lo, const double* hi) const { return count(range_of(lo, hi)); }
 
   // Calls f(id, cell) for every entry of the cells the box [lo, hi] overlaps
   // (cell: int64_t[3]); an entry of a box is met once per cell it shares.
@@ -254,7 +279,11 @@ class BoxGrid : public CellTable {
   // overlaps; stops at the first.
   template <class P>
   bool any_entry(const double* lo, const double* hi, P&& pred) const {
-    return any_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+    return any_entry(range_of(lo, hi), pred);
+  }
+  template <class P>
+  bool any_entry(const Range& r, P&& pred) const {
+    return any_cell_of(r, [&](int64_t x, int64_t y, int64_t z) {
       const uint32_t hb = hash(x, y, z);
       const uint32_t pc = pack(x, y, z);
       for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
@@ -272,8 +301,12 @@ class BoxGrid : public CellTable {
   // which the caller tests.)
   template <class F>
   void for_each_owned_entry(const double* lo, const double* hi, F&& f) const {
-    const int64_t c0 = cell(lo[0]), c1 = cell(lo[1]), c2 = cell(lo[2]);
-    for_each_cell_of(lo, hi, [&](int64_t x, int64_t y, int64_t z) {
+    for_each_owned_entry(range_of(lo, hi), f);
+  }
+  template <class F>
+  void for_each_owned_entry(const Range& r, F&& f) const {
+    const int64_t c0 = r.a[0], c1 = r.a[1], c2 = r.a[2];
+    for_each_cell_of(r, [&](int64_t x, int64_t y, int64_t z) {
       const uint32_t low = uint32_t(x == c0) | uint32_t(y == c1) << 1 | uint32_t(z == c2) << 2;
       const uint32_t hb = hash(x, y, z);
       const uint32_t pc = pack(x, y, z);
@@ -407,14 +440,26 @@ class BoxGrid : public CellTable {
   // cell is the box's low cell (ids stay below 2^29).
   static constexpr int kLowShift = 29;
   static constexpr uint32_t kIdMask = (1u << kLowShift) - 1;
+
+  // The build over the boxes each(enter) names, enter(i) for each i in
+  // ascending order (twice: the count and the scatter).
+  template <class Each>
+  void build_each(const double* lo, const double* hi, Each&& each);
 };
 
 template <class Keep>
 void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& keep) {
+  build_each(lo, hi, [&](auto&& enter) {
+    for (uint32_t i = 0; i < count; ++i)
+      if (keep(i)) enter(i);
+  });
+}
+
+template <class Each>
+void BoxGrid::build_each(const double* lo, const double* hi, Each&& each) {
   clear_counts();
   // Per box: its cell range, whether it fits (at most two cells per axis).
   auto range = [&](uint32_t i, int64_t* a, int64_t* b) {
-    if (!keep(i)) return false;
     for (int k = 0; k < 3; ++k) {
       a[k] = cell(lo[3 * size_t(i) + k]);
       b[k] = cell(hi[3 * size_t(i) + k]);
@@ -423,15 +468,15 @@ void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& k
     return true;
   };
   int64_t a[3], b[3];
-  for (uint32_t i = 0; i < count; ++i) {
-    if (!range(i, a, b)) continue;
+  each([&](uint32_t i) {
+    if (!range(i, a, b)) return;
     for (int64_t z = a[2]; z <= b[2]; ++z)
       for (int64_t y = a[1]; y <= b[1]; ++y)
         for (int64_t x = a[0]; x <= b[0]; ++x) ++start_[hash(x, y, z) + 1];
-  }
+  });
   starts();
-  for (uint32_t i = 0; i < count; ++i) {
-    if (!range(i, a, b)) continue;
+  each([&](uint32_t i) {
+    if (!range(i, a, b)) return;
     for (int64_t z = a[2]; z <= b[2]; ++z)
       for (int64_t y = a[1]; y <= b[1]; ++y)
         for (int64_t x = a[0]; x <= b[0]; ++x) {
@@ -439,7 +484,7 @@ void BoxGrid::build(const double* lo, const double* hi, uint32_t count, Keep&& k
           ids_[k] = i | (uint32_t(x == a[0]) | uint32_t(y == a[1]) << 1 | uint32_t(z == a[2]) << 2) << kLowShift;
           key_[k] = pack(x, y, z);
         }
-  }
+  });
   restore();
 }
 

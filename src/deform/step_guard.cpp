@@ -326,17 +326,42 @@ bool violates(const CubeSphere& m, const double* xs, TriangleScratch& ts, Contac
          mark_intersections(m, xs, ts, nullptr, ts.face_alt_new) > 0;
 }
 
-// share[v] held within kTaper of each neighbour's. Inlined into the sweeps
-// (four per round over every vertex), the minimum kept in a register: a
-// neighbour is never v itself, so the same values.
-inline __attribute__((always_inline)) void relax(const CubeSphere& m, double* share, size_t v) {
+// share[v] held within kTaper of each neighbour's, the minimum kept in a
+// register: a neighbour is never v itself, so the same values. A vertex
+// relaxed since its neighbours' shares last fell is within kTaper of each
+// (shares only fall during a guard call, and start equal), and relaxing it
+// again changes nothing; unsettled[v] marks the others. So the sweeps relax
+// those alone, in the same order, with the same values, and a share that
+// falls unsettles its neighbours (and sets changed[v]).
+inline __attribute__((always_inline)) void relax(const CubeSphere& m, double* share, uint8_t* unsettled,
+                                                 uint8_t* changed, size_t v) {
+  if (!unsettled[v]) return;
+  unsettled[v] = 0;
   const uint32_t* nb = m.nbr + 4 * v;
   double sv = share[v];
   for (int k = 0; k < 4; ++k) {
     const double lim = share[nb[k]] + kTaper;
     sv = sv > lim ? lim : sv;
   }
+  if (sv == share[v]) return;
   share[v] = sv;
+  changed[v] = 1;
+  for (int k = 0; k < 4; ++k) unsettled[nb[k]] = 1;
+}
+
+// Two forward and backward sweeps of relax() over the unsettled vertices.
+void relax_sweeps(const CubeSphere& m, double* share, uint8_t* unsettled, uint8_t* changed) {
+  const size_t nv = m.nv;
+  for (int sweep = 0; sweep < 2; ++sweep) {
+    for (size_t v = 0; v < nv; ++v) relax(m, share, unsettled, changed, v);
+    for (size_t v = nv; v-- > 0;) relax(m, share, unsettled, changed, v);
+  }
+}
+
+// A vertex's share fell (or may have): its neighbours are unsettled.
+inline void unsettle_around(const CubeSphere& m, uint8_t* unsettled, size_t v) {
+  const uint32_t* nb = m.nbr + 4 * v;
+  for (int k = 0; k < 4; ++k) unsettled[nb[k]] = 1;
 }
 
 bool same_bits(double a, double b) {
@@ -348,18 +373,34 @@ bool same_bits(double a, double b) {
 
 // xs = x_old + g share (x_new - x_old) per vertex; moved (may be nullptr)
 // receives which vertices' positions changed bit for bit.
+inline __attribute__((always_inline)) bool blend_vertex(size_t nv, const double* x_old, const double* x_new,
+                                                        double g, const double* share, double* xs, size_t v) {
+  bool changed = false;
+  for (int c = 0; c < 3; ++c) {
+    const double o = x_old[3 * v + c];
+    const double p = o + g * share[v] * (x_new[c * nv + v] - o);
+    changed |= !same_bits(p, xs[3 * v + c]);
+    xs[3 * v + c] = p;
+  }
+  return changed;
+}
+
 void blend(size_t nv, const double* x_old, const double* x_new, double g, const double* share, double* xs,
            uint8_t* moved) {
   for (size_t v = 0; v < nv; ++v) {
-    bool changed = false;
-    for (int c = 0; c < 3; ++c) {
-      const double o = x_old[3 * v + c];
-      const double p = o + g * share[v] * (x_new[c * nv + v] - o);
-      changed |= !same_bits(p, xs[3 * v + c]);
-      xs[3 * v + c] = p;
-    }
+    const bool changed = blend_vertex(nv, x_old, x_new, g, share, xs, v);
     if (moved) moved[v] = changed;
   }
+}
+
+// The rounds' blend at g = 1 when xs holds the last one's and only the
+// vertices with moved[v] set may have changed their share since: blend()
+// of these alone (the others' positions are the same bits), moved[v] then
+// telling whether they moved, as blend() does.
+void blend_changed(size_t nv, const double* x_old, const double* x_new, const double* share, double* xs,
+                   uint8_t* moved) {
+  for (size_t v = 0; v < nv; ++v)
+    if (moved[v]) moved[v] = blend_vertex(nv, x_old, x_new, 1.0, share, xs, v);
 }
 
 // Marks (ts.vertex_marks) and counts every offence (turn or fold) at xs.
@@ -370,10 +411,16 @@ void blend(size_t nv, const double* x_old, const double* x_new, double g, const 
 uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* xs, const uint8_t* moved,
                         TriangleScratch& ts) {
   uint8_t* flags = ts.face_flags;
+  uint8_t* mark = ts.vertex_marks;
+  for (size_t v = 0; v < m.nv; ++v) mark[v] = 0;
+  uint32_t count = 0;
   if (!moved) {
     for (uint32_t f = 0; f < m.nfaces; ++f) cache_face(m, f, xs, ts.face_n_new, ts.face_alt_new);
     ts.face_new_partial = false;
-    for (uint32_t f = 0; f < m.nfaces; ++f) flags[f] = face_offences_cached(m, f, xs, ts);
+    for (uint32_t f = 0; f < m.nfaces; ++f) {
+      flags[f] = face_offences_cached(m, f, xs, ts);
+      if (flags[f]) count += mark_offences(m, f, flags[f], x_old, mark, false);
+    }
   } else {
     // A face's tests read its own vertices and the cache of its higher edge
     // neighbours (the fold across an edge is tested by the lower face).
@@ -387,6 +434,8 @@ uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* 
           break;
         }
     }
+    // Only lower faces read a face's dirty bit: the walk clears it as it
+    // passes, and marks each face's offences there.
     for (uint32_t f = 0; f < m.nfaces; ++f) {
       const uint32_t* q = m.faces + 4 * size_t(f);
       const int k = q[3] == kNone ? 3 : 4;
@@ -395,15 +444,10 @@ uint32_t mark_offending(const CubeSphere& m, const double* x_old, const double* 
         const uint32_t g = m.fadj[4 * size_t(f) + e];
         dirty = g != kNone && g > f && (flags[g] & kDirty);
       }
-      if (dirty) flags[f] = uint8_t((flags[f] & kDirty) | face_offences_cached(m, f, xs, ts));
+      flags[f] = dirty ? face_offences_cached(m, f, xs, ts) : uint8_t(flags[f] & ~kDirty);
+      if (flags[f]) count += mark_offences(m, f, flags[f], x_old, mark, false);
     }
-    for (uint32_t f = 0; f < m.nfaces; ++f) flags[f] &= uint8_t(~kDirty);
   }
-  uint8_t* mark = ts.vertex_marks;
-  for (size_t v = 0; v < m.nv; ++v) mark[v] = 0;
-  uint32_t count = 0;
-  for (uint32_t f = 0; f < m.nfaces; ++f)
-    if (flags[f]) count += mark_offences(m, f, flags[f], x_old, mark, false);
   return count;
 }
 
@@ -516,22 +560,29 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // (ts.vertex_marks); the first round marks from scratch.
   uint8_t* moved = ts.vertex_flags;
   bool tracked = false;  // mark_all's first intersection test is from scratch
+  // The rounds' marks are read where mark_all() leaves them (ts.vertex_marks);
+  // mark holds the relax sweeps' unsettled vertices, none while the shares
+  // are all equal.
+  uint8_t* unsettled = mark;
+  if (!clean)
+    for (size_t v = 0; v < nv; ++v) unsettled[v] = 0;
   for (int round = 0; round < kLocalRounds && !clean; ++round) {
     if (round == 0) mark_all(m, x_old, xs, nullptr, ts, &tracked, obstacles);
-    for (size_t v = 0; v < nv; ++v) mark[v] = ts.vertex_marks[v];
+    const uint8_t* marked = ts.vertex_marks;
     for (size_t v = 0; v < nv; ++v) {
-      grow[v] = mark[v];
-      if (!mark[v]) continue;
+      grow[v] = marked[v];
+      if (!marked[v]) continue;
       const uint32_t* nb = m.nbr + 4 * v;
       for (int k = 0; k < 4; ++k) grow[nb[k]] = 1;
     }
-    for (size_t v = 0; v < nv; ++v)
-      if (grow[v]) share[v] = share[v] * 0.5 < kMinShare ? 0.0 : share[v] * 0.5;
-    for (int sweep = 0; sweep < 2; ++sweep) {
-      for (size_t v = 0; v < nv; ++v) relax(m, share, v);
-      for (size_t v = nv; v-- > 0;) relax(m, share, v);
+    for (size_t v = 0; v < nv; ++v) {
+      moved[v] = grow[v];
+      if (!grow[v]) continue;
+      share[v] = share[v] * 0.5 < kMinShare ? 0.0 : share[v] * 0.5;
+      unsettle_around(m, unsettled, v);
     }
-    blend(nv, x_old, x_new, 1.0, share, xs, moved);
+    relax_sweeps(m, share, unsettled, moved);
+    blend_changed(nv, x_old, x_new, share, xs, moved);
     clean = mark_all(m, x_old, xs, moved, ts, &tracked, obstacles) == 0;
   }
   // Still offending after the halving rounds: the offenders' vertices and
@@ -546,18 +597,22 @@ double guard_step(const CubeSphere& m, const double* x_old, double* x_new, doubl
   // as a clean local round is: a check from scratch after it cost the 1 mm
   // liver's jammed steps 17-19 ms each and never found anything.
   for (int round = 0; round < kFreezeRounds && !clean; ++round) {
-    for (size_t v = 0; v < nv; ++v) mark[v] = ts.vertex_marks[v];
+    const uint8_t* marked = ts.vertex_marks;
+    for (size_t v = 0; v < nv; ++v) moved[v] = 0;
     for (size_t v = 0; v < nv; ++v) {
-      if (!mark[v]) continue;
+      if (!marked[v]) continue;
       share[v] = 0;
+      moved[v] = 1;
+      unsettle_around(m, unsettled, v);
       const uint32_t* nb = m.nbr + 4 * v;
-      for (int k = 0; k < 4; ++k) share[nb[k]] = 0;
+      for (int k = 0; k < 4; ++k) {
+        share[nb[k]] = 0;
+        moved[nb[k]] = 1;
+        unsettle_around(m, unsettled, nb[k]);
+      }
     }
-    for (int sweep = 0; sweep < 2; ++sweep) {
-      for (size_t v = 0; v < nv; ++v) relax(m, share, v);
-      for (size_t v = nv; v-- > 0;) relax(m, share, v);
-    }
-    blend(nv, x_old, x_new, 1.0, share, xs, moved);
+    relax_sweeps(m, share, unsettled, moved);
+    blend_changed(nv, x_old, x_new, share, xs, moved);
     clean = mark_all(m, x_old, xs, moved, ts, &tracked, obstacles) == 0;
   }
   double g = 1.0;

@@ -171,6 +171,10 @@ RoiStatus SmoothedRoi::compute(const VolumeView& vol, const int64_t lo_in[3], co
     ghi_[a] = D[a] - hi_[a] < int64_t(margin) ? D[a] : hi_[a] + int64_t(margin);
     ext[a] = ghi_[a] - glo_[a];
     ext_[a] = ext[a];
+    in_lo_[a] = double(glo_[a]) - 0.5;
+    in_hi_[a] = double(ghi_[a]) - 0.5;
+    centre_lo_[a] = double(glo_[a]);
+    centre_hi_[a] = double(ghi_[a] - 1);
     // The statistics' box: the given one within the requested box, else that box.
     slo_[a] = lo_[a];
     shi_[a] = hi_[a];

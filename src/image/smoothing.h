@@ -138,7 +138,7 @@ class SmoothedRoi {
   // [data_lo - 0.5, data_hi - 0.5].
   bool inside_index(const double p[3]) const {
     for (int a = 0; a < 3; ++a)
-      if (!(p[a] >= double(glo_[a]) - 0.5 && p[a] <= double(ghi_[a]) - 0.5)) return false;
+      if (!(p[a] >= in_lo_[a] && p[a] <= in_hi_[a])) return false;
     return true;
   }
   // Trilinear value at index-space point p, coordinates clamped to the stored
@@ -149,7 +149,7 @@ class SmoothedRoi {
     double f[3];
     for (int a = 0; a < 3; ++a) {
       double x = p[a];
-      const double l = double(glo_[a]), h = double(ghi_[a] - 1);
+      const double l = centre_lo_[a], h = centre_hi_[a];
       if (!(x > l)) x = l;  // NaN too
       if (x > h) x = h;
       // x >= data_lo >= 0 here, so truncation is floor (and cheaper than it).
@@ -285,6 +285,11 @@ class SmoothedRoi {
   bool valid_ = false;
   int64_t lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
   int64_t glo_[3] = {0, 0, 0}, ghi_[3] = {0, 0, 0};
+  // The stored box's bounds as the samplers read them, converted once per
+  // compute() instead of at every sample (the same doubles): the voxel box
+  // [glo_ - 0.5, ghi_ - 0.5] and the first and last voxel centres.
+  double in_lo_[3] = {0, 0, 0}, in_hi_[3] = {0, 0, 0};
+  double centre_lo_[3] = {0, 0, 0}, centre_hi_[3] = {0, 0, 0};
   int64_t grid_[3] = {0, 0, 0};
   int64_t st_[3] = {0, 0, 0};  // buffer stride of each index axis
   int64_t ext_[3] = {0, 0, 0}; // stored region's extent per index axis

@@ -44,16 +44,17 @@ inline void vertex_box(const double* x, uint32_t nv, double eps, double* lo, dou
   hi[2] = h2 + eps;
 }
 
-// Per vertex, on which sides of the box [lo, hi] it lies (bits: below, above
-// per axis): the box of a face misses the box exactly when the codes of its
-// vertices share a bit.
+// On which sides of the box [lo, hi] point p lies (bits: below, above per
+// axis); outcodes(): every vertex's. The box of a face misses the box
+// exactly when the codes of its vertices share a bit.
+inline uint8_t outcode(const double* p, const double* lo, const double* hi) {
+  return uint8_t(int(p[0] < lo[0]) | int(p[0] > hi[0]) << 1 | int(p[1] < lo[1]) << 2 | int(p[1] > hi[1]) << 3 |
+                 int(p[2] < lo[2]) << 4 | int(p[2] > hi[2]) << 5);
+}
+
 inline void outcodes(const double* x, uint32_t nv, const double* lo, const double* hi, uint8_t* code) {
-  const double l0 = lo[0], l1 = lo[1], l2 = lo[2], h0 = hi[0], h1 = hi[1], h2 = hi[2];
-  for (uint32_t v = 0; v < nv; ++v) {
-    const double* p = x + 3 * size_t(v);
-    code[v] = uint8_t(int(p[0] < l0) | int(p[0] > h0) << 1 | int(p[1] < l1) << 2 | int(p[1] > h1) << 3 |
-                      int(p[2] < l2) << 4 | int(p[2] > h2) << 5);
-  }
+  const double l[3] = {lo[0], lo[1], lo[2]}, h[3] = {hi[0], hi[1], hi[2]};
+  for (uint32_t v = 0; v < nv; ++v) code[v] = outcode(x + 3 * size_t(v), l, h);
 }
 
 // Whether face f's box meets the box of the codes.
@@ -191,7 +192,7 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   box = a.alloc<double>(size_t(6) * max_obst);
   state = a.alloc<uint8_t>(max_obst);
   fdone = a.alloc<uint8_t>(size_t(m.nfaces) * max_obst);
-  tri_set = a.alloc<uint8_t>(total);
+  entered = a.alloc<uint32_t>(total);
   tris = a.alloc<uint32_t>(3 * total);
   lo = a.alloc<double>(3 * total);
   hi = a.alloc<double>(3 * total);
@@ -233,7 +234,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     }
   }
   double emean = 0, extent = 0;
-  size_t entered = 0;
+  s.nentered = 0;
   for (uint32_t k = 0; k < s.count; ++k) {
     s.pos[k] = xs[k];
     double* b = s.box + 6 * size_t(k);
@@ -252,28 +253,30 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
       for (int i = 0; i < c; ++i) {
         const size_t g = 3 * (t0 + i);
         emean += (s.hi[g] - s.lo[g]) + (s.hi[g + 1] - s.lo[g + 1]) + (s.hi[g + 2] - s.lo[g + 2]);
+        s.entered[s.nentered++] = uint32_t(t0 + i);
       }
-      entered += size_t(c);
     }
   }
+  const uint32_t entered = s.nentered;
   s.nbig = 0;
   s.eps = 0;
   if (entered == 0) {
     s.grid.set_cell_size(1);
     s.grid.size_table(0);
-    s.grid.build(s.lo, s.hi, 0, [](uint32_t) { return false; });
+    s.grid.build_from(s.lo, s.hi, s.entered, 0);
     return;
   }
   emean /= 3.0 * double(entered);
   // Candidates: boxes that overlap, each widened by a hair against rounding
   // (the query mesh's by the same).
   s.eps = std::isfinite(emean + extent) ? 1e-9 * (emean + extent) : 0.0;
-  for_each_done(m, s, [&](uint32_t t) {
+  for (uint32_t j = 0; j < entered; ++j) {
+    const size_t t = s.entered[j];
     for (int a = 0; a < 3; ++a) {
-      s.lo[3 * size_t(t) + a] -= s.eps;
-      s.hi[3 * size_t(t) + a] += s.eps;
+      s.lo[3 * t + a] -= s.eps;
+      s.hi[3 * t + a] += s.eps;
     }
-  });
+  }
   for (uint32_t k = 0; k < s.count; ++k)
     for (int a = 0; a < 3; ++a) {
       s.box[6 * size_t(k) + a] -= s.eps;
@@ -287,23 +290,19 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
     s.grid.set_cell_size(h);
     s.nbig = 0;
     bool over = false;
-    for_each_done(m, s, [&](uint32_t t) {
-      if (over || s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t))) return;
+    for (uint32_t j = 0; j < entered && !over; ++j) {
+      const uint32_t t = s.entered[j];
+      if (s.grid.fits(s.lo + 3 * size_t(t), s.hi + 3 * size_t(t))) continue;
       if (s.nbig == s.big_cap) over = true;
       else s.big[s.nbig++] = t;
-    });
+    }
     if (!over) break;
     h *= 2;
   }
-  // The grids' builds ask about every triangle id twice: a flag per id
-  // answers which ones were set up and which of these are big (the cell
-  // arithmetic of fits() is most of a build's cost).
-  const uint32_t total = nt * s.count;
-  for (uint32_t t = 0; t < total; ++t) s.tri_set[t] = 0;
-  for_each_done(m, s, [&](uint32_t t) { s.tri_set[t] = 1; });
-  for (uint32_t j = 0; j < s.nbig; ++j) s.tri_set[s.big[j]] = 2;
-  s.grid.size_table(uint32_t(entered));
-  s.grid.build(s.lo, s.hi, total, [&](uint32_t t) { return s.tri_set[t] == 1; });
+  // The grid enters the triangles set up that fit its cells; the big ones
+  // (listed in ascending order, as entered) go to their own.
+  s.grid.size_table(entered);
+  s.grid.build_from(s.lo, s.hi, s.entered, entered);
   // The big ones at cells as wide as the widest of them (each then spans at
   // most two per axis).
   double wide = 2 * h;
@@ -313,7 +312,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
   s.big_fit = true;
   for (uint32_t j = 0; j < s.nbig; ++j)
     s.big_fit = s.big_fit && s.big_grid.fits(s.lo + 3 * size_t(s.big[j]), s.hi + 3 * size_t(s.big[j]));
-  s.big_grid.build(s.lo, s.hi, s.big_fit && s.nbig ? total : 0, [&](uint32_t t) { return s.tri_set[t] == 2; });
+  s.big_grid.build_from(s.lo, s.hi, s.big, s.big_fit ? s.nbig : 0);
 }
 
 
@@ -333,10 +332,14 @@ bool box_meets_obstacles(const ContactScratch& s, const double* lo, const double
   auto meets = [&](uint32_t u) {
     return detail::boxes_overlap(lo, hi, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u));
   };
-  if (s.grid.cells(lo, hi) > kMaxQueryCells) return true;
-  if (s.grid.any_entry(lo, hi, meets)) return true;
+  const BoxGrid::Range r = s.grid.range_of(lo, hi);
+  if (BoxGrid::count(r) > kMaxQueryCells) return true;
+  if (s.grid.any_entry(r, meets)) return true;
   if (s.nbig == 0) return false;
-  if (s.big_fit && s.big_grid.cells(lo, hi) <= kMaxQueryCells) return s.big_grid.any_entry(lo, hi, meets);
+  if (s.big_fit) {
+    const BoxGrid::Range rb = s.big_grid.range_of(lo, hi);
+    if (BoxGrid::count(rb) <= kMaxQueryCells) return s.big_grid.any_entry(rb, meets);
+  }
   for (uint32_t j = 0; j < s.nbig; ++j)
     if (meets(s.big[j])) return true;
   return false;
@@ -409,16 +412,33 @@ uint32_t contact_zone(const CubeSphere& m, const double* x, ContactScratch& s, d
   return near;
 }
 
-// s.qcode: per vertex of x, its outcodes against the zone widened by eps
-// (a face whose box, widened by eps, misses it has no triangle to test).
-void zone_codes(const CubeSphere& m, const double* x, ContactScratch& s, const double zlo[3], const double zhi[3]) {
-  double wlo[3], whi[3];
-  for (int a = 0; a < 3; ++a) {
-    wlo[a] = zlo[a] - s.eps;
-    whi[a] = zhi[a] + s.eps;
+// Which faces of x meet the zone widened by eps (a face whose box, widened
+// by eps, misses it has no triangle to test): face_meets() on its vertices'
+// outcodes. Swept, the reach filter leaves few faces to ask about, and
+// their own vertices' codes are computed as asked (the same comparisons);
+// otherwise every face is asked, and s.qcode holds every vertex's.
+struct ZoneFaces {
+  const CubeSphere& m;
+  const double* x;
+  const ContactScratch& s;
+  double lo[3], hi[3];
+  ZoneFaces(const CubeSphere& mesh, const double* pos, ContactScratch& sc, const double zlo[3], const double zhi[3])
+      : m(mesh), x(pos), s(sc) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = zlo[a] - sc.eps;
+      hi[a] = zhi[a] + sc.eps;
+    }
+    if (!sc.swept) outcodes(x, m.nv, lo, hi, sc.qcode);
   }
-  outcodes(x, m.nv, wlo, whi, s.qcode);
-}
+  bool meets(uint32_t f) const {
+    if (!s.swept) return face_meets(m, f, s.qcode);
+    const uint32_t* q = m.faces + 4 * size_t(f);
+    uint8_t c = uint8_t(outcode(x + 3 * size_t(q[0]), lo, hi) & outcode(x + 3 * size_t(q[1]), lo, hi) &
+                        outcode(x + 3 * size_t(q[2]), lo, hi));
+    if (q[3] != kNone) c &= outcode(x + 3 * size_t(q[3]), lo, hi);
+    return c == 0;
+  }
+};
 
 // Calls hit(t, u) for every pair of a triangle t of x's face f (boxed by
 // prepare_face()) and an obstacle triangle u that cross, while hit returns
@@ -468,16 +488,18 @@ bool face_contacts(const CubeSphere& m, const double* x, const ContactScratch& s
   // Each obstacle triangle once: in the cell holding the low corner of the
   // intersection of its box and the face's (it lies in both boxes' cells),
   // told by the entries' low-cell bits before their boxes are read.
-  auto query = [&](const BoxGrid& g) {
-    g.for_each_owned_entry(lf, hf, [&](uint32_t u) {
+  auto query = [&](const BoxGrid& g, const BoxGrid::Range& r) {
+    g.for_each_owned_entry(r, [&](uint32_t u) {
       if (!stop && detail::boxes_overlap(lf, hf, s.lo + 3 * size_t(u), s.hi + 3 * size_t(u))) test(u);
     });
   };
-  if (s.grid.cells(lf, hf) <= kMaxQueryCells) {
-    query(s.grid);
+  const BoxGrid::Range r = s.grid.range_of(lf, hf);
+  if (BoxGrid::count(r) <= kMaxQueryCells) {
+    query(s.grid, r);
     if (s.nbig == 0 || stop) return stop;
-    if (s.big_fit && s.big_grid.cells(lf, hf) <= kMaxQueryCells) {
-      query(s.big_grid);
+    const BoxGrid::Range rb = s.big_fit ? s.big_grid.range_of(lf, hf) : r;
+    if (s.big_fit && BoxGrid::count(rb) <= kMaxQueryCells) {
+      query(s.big_grid, rb);
     } else {
       for (uint32_t j = 0; j < s.nbig && !stop; ++j) {
         const uint32_t u = s.big[j];
@@ -543,11 +565,11 @@ uint32_t contacts_full(const CubeSphere& m, const double* x, ContactScratch& s, 
     s.tracked = record;
     return 0;
   }
-  zone_codes(m, x, s, zlo, zhi);
+  const ZoneFaces zone(m, x, s, zlo, zhi);
   uint32_t count = 0;
   bool room = true;
   for (uint32_t f = 0; f < m.nfaces; ++f) {
-    if ((s.swept && !s.reach[f]) || !face_meets(m, f, s.qcode)) continue;
+    if ((s.swept && !s.reach[f]) || !zone.meets(f)) continue;
     prepare_face(m, x, s, f, alt);
     const bool stop = face_contacts(m, x, s, near, f, [&](uint32_t t, uint32_t u) {
       ++count;
@@ -585,12 +607,13 @@ uint32_t mark_contacts_tracked(const CubeSphere& m, const double* x, ContactScra
   if (!moved || !s.tracked) return contacts_full(m, x, s, mark, alt, true);
   if (s.count == 0) return 0;
   const uint32_t nt = s.nt;
-  // The faces around moved vertices are split and boxed again when met.
-  for (uint32_t f = 0; f < m.nfaces; ++f)
-    if (face_moved(m, f, moved)) s.qface[f] = 0;
+  // The faces around moved vertices are split and boxed again when met
+  // (their qface cleared by the walk below, which passes every face).
   double xlo[3], xhi[3], zlo[3], zhi[3];
   const uint32_t near = contact_zone(m, x, s, xlo, xhi, zlo, zhi);
   if (near == 0) {
+    for (uint32_t f = 0; f < m.nfaces; ++f)
+      if (face_moved(m, f, moved)) s.qface[f] = 0;
     s.npairs = 0;
     return 0;
   }
@@ -607,10 +630,12 @@ uint32_t mark_contacts_tracked(const CubeSphere& m, const double* x, ContactScra
     mark[a[0]] = mark[a[1]] = mark[a[2]] = 1;
   }
   s.npairs = kept;
-  zone_codes(m, x, s, zlo, zhi);
+  const ZoneFaces zone(m, x, s, zlo, zhi);
   bool room = true;
   for (uint32_t f = 0; f < m.nfaces && room; ++f) {
-    if ((s.swept && !s.reach[f]) || !face_moved(m, f, moved) || !face_meets(m, f, s.qcode)) continue;
+    if (!face_moved(m, f, moved)) continue;
+    s.qface[f] = 0;
+    if ((s.swept && !s.reach[f]) || !zone.meets(f)) continue;
     prepare_face(m, x, s, f, alt);
     face_contacts(m, x, s, near, f, [&](uint32_t t, uint32_t u) {
       if (!(room = s.npairs < s.pair_cap)) return true;

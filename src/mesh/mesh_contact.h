@@ -30,9 +30,10 @@ struct ContactScratch {
   static constexpr uint8_t kActive = 1, kComplete = 2;
   uint8_t* state = nullptr;
   uint8_t* fdone = nullptr;           // per obstacle and face: split and boxed
-  // Per obstacle triangle (build_obstacles() scratch): 1 when its face is
-  // set up and it fits the grid's cells, 2 when set up and big.
-  uint8_t* tri_set = nullptr;
+  // The obstacle triangles build_obstacles() set up, in ascending id order
+  // (its scratch: the grids' builds walk these instead of every id).
+  uint32_t* entered = nullptr;
+  uint32_t nentered = 0;
   // Obstacle triangles, id k * nt + t: vertex indices (3 each, within
   // obstacle k, face_triangles() split at its positions) and boxes, valid
   // where fdone is set for the triangle's face.

@@ -87,10 +87,17 @@ TEST_CASE("workspace: pinned sizes of a few configurations (default max_roi_voxe
   // Then each object keeps its first crop's acquisition scale (8 B in its
   // record, object.h): +64 B for 8 objects; the one-object engines' records
   // keep their rounded size.
-  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 231381504u);
-  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20072448u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 39632192u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 21699904u);
+  // Then each object's crop keeps the bounds its samplers read as doubles
+  // (96 B in its record, smoothing.h), converted once per crop instead of at
+  // every sample: +768 B for 8 objects, +64 B for one.
+  // Then the contact test lists the obstacle triangles it set up (4 B per
+  // obstacle triangle instead of a 1 B flag, mesh_contact.h), so that its
+  // grids' builds walk these alone: +36 288 B for 8 objects at n = 12, and
+  // its count, a line more of every engine's scratch record (+64 B).
+  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 231418560u);
+  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20072576u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 39632320u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 21700032u);
 }
 
 TEST_CASE("workspace: grey-level buffers are per object and only in intensity configurations") {
