@@ -72,8 +72,8 @@ class CellTable {
     const uint64_t h = uint64_t(x) * 73856093u ^ uint64_t(y) * 19349663u ^ uint64_t(z) * 83492791u;
     return uint32_t(h & mask_);
   }
-  // Whether pred(x, y, z) holds for some cell the box [lo, hi] overlaps;
-  // stops at the first.
+  // Whether pred(x, y, z) holds for some cell of the range; stops at the
+  // first.
   template <class P>
   bool any_cell_of(const Range& r, P&& pred) const {
     for (int64_t z = r.a[2]; z <= r.b[2]; ++z)
@@ -81,10 +81,6 @@ class CellTable {
         for (int64_t x = r.a[0]; x <= r.b[0]; ++x)
           if (pred(x, y, z)) return true;
     return false;
-  }
-  template <class P>
-  bool any_cell_of(const double* lo, const double* hi, P&& pred) const {
-    return any_cell_of(range_of(lo, hi), pred);
   }
   // Calls f(x, y, z) for every cell the box [lo, hi] overlaps.
   template <class F>
@@ -275,12 +271,8 @@ class BoxGrid : public CellTable {
         if (key_[k] == pc) f(ids_[k] & kIdMask, c);
     });
   }
-  // Whether pred(id) holds for some entry of the cells the box [lo, hi]
-  // overlaps; stops at the first.
-  template <class P>
-  bool any_entry(const double* lo, const double* hi, P&& pred) const {
-    return any_entry(range_of(lo, hi), pred);
-  }
+  // Whether pred(id) holds for some entry of the range's cells (range_of()
+  // the box); stops at the first.
   template <class P>
   bool any_entry(const Range& r, P&& pred) const {
     return any_cell_of(r, [&](int64_t x, int64_t y, int64_t z) {

@@ -497,8 +497,8 @@ bool face_contacts(const CubeSphere& m, const double* x, const ContactScratch& s
   if (BoxGrid::count(r) <= kMaxQueryCells) {
     query(s.grid, r);
     if (s.nbig == 0 || stop) return stop;
-    const BoxGrid::Range rb = s.big_fit ? s.big_grid.range_of(lf, hf) : r;
-    if (s.big_fit && BoxGrid::count(rb) <= kMaxQueryCells) {
+    BoxGrid::Range rb;
+    if (s.big_fit && BoxGrid::count(rb = s.big_grid.range_of(lf, hf)) <= kMaxQueryCells) {
       query(s.big_grid, rb);
     } else {
       for (uint32_t j = 0; j < s.nbig && !stop; ++j) {
