@@ -38,7 +38,8 @@
   F(ffseg_step_info, flips_avoided) F(ffseg_step_info, intersections_avoided)               \
   F(ffseg_step_info, border_vertices) F(ffseg_step_info, stage_us)                         \
   F(ffseg_step_info, object_flags) F(ffseg_step_info, flags_all) F(ffseg_step_info, reserved1)   \
-  F(ffseg_step_info, guard_held) F(ffseg_step_info, far_outward) F(ffseg_step_info, far_inward)
+  F(ffseg_step_info, guard_held) F(ffseg_step_info, far_outward) F(ffseg_step_info, far_inward) \
+  F(ffseg_step_info, respaced)
 
 /* S(struct, FIELDS-macro) for each public struct. */
 #define FFSEG_PUBLIC_STRUCTS(S)                                                           \

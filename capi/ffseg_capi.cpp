@@ -461,6 +461,7 @@ static ffseg_status init_sphere_call(ffseg_engine* e, uint32_t object, const dou
 // stage_us; they get the fields they know, and the bytes past them are theirs.
 static const size_t kStepInfoFirstSize = offsetof(ffseg_step_info, object_flags);
 static const size_t kStepInfoV04Size = offsetof(ffseg_step_info, guard_held);
+static const size_t kStepInfoV05Size = offsetof(ffseg_step_info, respaced);
 static_assert(FFSEG_OBJECT_NO_BOUNDARY == ffseg::kObjectNoBoundary && FFSEG_OBJECT_FILLS_GRID == ffseg::kObjectFillsGrid &&
                   FFSEG_OBJECT_STALLED == ffseg::kObjectStalled,
               "object flags");
@@ -495,12 +496,14 @@ static ffseg_status step_call(ffseg_engine* e, ffseg_step_info* info) {
       info->flags_all = r.flags_all;
       info->reserved1 = 0;
     }
-    if (info->struct_size >= sizeof(ffseg_step_info))
+    if (info->struct_size >= kStepInfoV05Size)
       for (uint32_t i = 0; i < FFSEG_REPORT_OBJECTS; ++i) {
         info->guard_held[i] = r.guard_held[i];
         info->far_outward[i] = r.far_outward[i];
         info->far_inward[i] = r.far_inward[i];
       }
+    if (info->struct_size >= sizeof(ffseg_step_info))
+      for (uint32_t i = 0; i < FFSEG_REPORT_OBJECTS; ++i) info->respaced[i] = r.respaced[i];
   }
   return to_status(st);
 }

@@ -62,7 +62,7 @@ extern "C" {
 
 /* ---- Version ------------------------------------------------------------ */
 #define FFSEG_VERSION_MAJOR 0
-#define FFSEG_VERSION_MINOR 7
+#define FFSEG_VERSION_MINOR 8
 #define FFSEG_VERSION_PATCH 0
 #define FFSEG_VERSION_NUMBER \
   (FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH)
@@ -251,14 +251,20 @@ typedef struct ffseg_params {
   uint32_t grey_respacing;       /* grey-level targets re-space their contour loops, as binary targets
                                     do, until they first come to rest (then the surface's motion and its
                                     fronts' advance decide the rest, as for binary targets): a mesh grows
-                                    along a tube or a horn from a sphere at one end. Off by default: it
-                                    also carries a mesh through any gap that the intensity model leaves
-                                    open between the organ and a neighbour of its grey level (abdominal
-                                    CT: the aorta and gallbladder leak; Colin27's nuclei into their
-                                    neighbours). Without it a grey-level mesh re-spaces only to leave a
-                                    stall. Along a long tube also set diffusion_iterations to 2: the
-                                    automatic rounds average the few vertices at its tip with their
-                                    resting neighbours and it stops short. 0..1; default 0 */
+                                    along a tube or a horn from a sphere at one end. It also carries a
+                                    mesh through any gap that the intensity model leaves open between the
+                                    organ and a neighbour of its grey level (abdominal CT: the aorta and
+                                    gallbladder leak; Colin27's nuclei into their neighbours), so by
+                                    default (0, since 0.8.0) an object grows so only where its boundary is
+                                    in view of the box around its sphere: its grey level holds less than a
+                                    quarter of the box, and the box's other classes less than 5% of the
+                                    values it accepts (a vessel, a duct, a ventricle of its own contrast;
+                                    not a soft-tissue organ in CT, not a nucleus among grey and white
+                                    matter). 1: always; 2: never (0.7.0's default). Without it a grey-level
+                                    mesh re-spaces only to leave a stall. Along a long tube also set
+                                    diffusion_iterations to 2: the automatic rounds average the few
+                                    vertices at its tip with their resting neighbours and it stops short.
+                                    0..2; default 0 */
 } ffseg_params;
 
 /* Fills *p with the defaults above and struct_size = sizeof(ffseg_params). */
@@ -401,6 +407,11 @@ typedef struct ffseg_step_info {
                                                  their solved update (a fold, a crossing, a contact) */
   uint32_t far_outward[FFSEG_REPORT_OBJECTS]; /* vertices whose target lay more than a voxel outward */
   uint32_t far_inward[FFSEG_REPORT_OBJECTS];  /* ... and inward (see FFSEG_OBJECT_STALLED) */
+  /* Since 0.8.0; a caller's struct of 0.5-0.7, which ends before this, gets
+   * the fields above only. */
+  uint32_t respaced[FFSEG_REPORT_OBJECTS];    /* 1: the object's mesh re-spaced its contour loops this
+                                                 step (binary targets until their first rest; grey
+                                                 levels by params.grey_respacing, or to leave a stall) */
 } ffseg_step_info;
 
 /* One deformation step of every placed object (thesis Algorithm 1). Returns

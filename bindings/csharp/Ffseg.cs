@@ -112,7 +112,7 @@ public struct Params {
   public double RegionWidthMm;   // several objects (0.3.0): 0 = automatic, 10 mm
   public double BorderWeight;
   public uint RegionInterval;
-  public uint GreyRespacing;     // 0.7.0 (Reserved2 before): grey levels re-space their loops until the first rest
+  public uint GreyRespacing;     // 0.7.0 (Reserved2 before): grey levels re-space their loops until the first rest; 0.8.0: 0 automatic, 1 always, 2 never
 
   public static Params Default() {
     Params p;
@@ -157,6 +157,8 @@ public unsafe struct StepInfo {
   public fixed uint GuardHeld[16];
   public fixed uint FarOutward[16];
   public fixed uint FarInward[16];
+  // Since 0.8.0: 1 where the object's mesh re-spaced its contour loops.
+  public fixed uint Respaced[16];
 }
 
 internal static class Native {

@@ -93,7 +93,8 @@
     ["intersections_avoided", "u32", REPORT_OBJECTS], ["border_vertices", "u32", REPORT_OBJECTS],
     ["stage_us", "i64", STAGE_NAMES.length], ["object_flags", "u32", REPORT_OBJECTS],
     ["flags_all", "u32"], ["reserved1", "u32"], ["guard_held", "u32", REPORT_OBJECTS],
-    ["far_outward", "u32", REPORT_OBJECTS], ["far_inward", "u32", REPORT_OBJECTS]]);
+    ["far_outward", "u32", REPORT_OBJECTS], ["far_inward", "u32", REPORT_OBJECTS],
+    ["respaced", "u32", REPORT_OBJECTS]]);  // since 0.8.0
   const LAYOUTS = { ffseg_config: CONFIG, ffseg_params: PARAMS, ffseg_volume: VOLUME, ffseg_step_info: STEP_INFO };
 
   const camel = (s) => s.replace(/_([a-z])/g, (_, c) => c.toUpperCase());
@@ -173,7 +174,8 @@
         this.stepIndex = info.get("step_index");
         this.activeObjects = info.get("active_objects");
         for (const f of ["mean_displacement_mm", "vertices_with_target", "flips_avoided",
-          "intersections_avoided", "border_vertices", "object_flags", "guard_held", "far_outward", "far_inward"])
+          "intersections_avoided", "border_vertices", "object_flags", "guard_held", "far_outward", "far_inward",
+          "respaced"])
           this[camel(f)] = info.array(f).slice(0, n);
         this.flagsAll = info.get("flags_all");
         this.stageUs = {};

@@ -421,7 +421,7 @@ Err Engine::step(StepReport* r) {
 
   if (naive_) {
     each_active([&](Object& o) {
-      naive_step(nv, p, o.convergence.moving_threshold(rule()), o.x, o.step);
+      naive_step(nv, p, o.convergence.moving_threshold(rule(o)), o.x, o.step);
       return Err::ok;
     });
   } else {
@@ -454,8 +454,8 @@ Err Engine::step(StepReport* r) {
       if (placed > 1)
         for (uint32_t j = 0; j < N; ++j)
           if (j != i && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
-      const Err e = deform_step(mesh_, p, &vol_, o.convergence.moving_threshold(rule()),
-                                o.convergence.respacing(rule()), o.x, o.step, scratch_,
+      const Err e = deform_step(mesh_, p, &vol_, o.convergence.moving_threshold(rule(o)),
+                                o.convergence.respacing(rule(o)), o.x, o.step, scratch_,
                                 scratch_.obstacles, others, r->stage_us, msg_, kMsgLen);
       if (e != Err::ok) return e;
     }
@@ -490,8 +490,9 @@ Err Engine::step(StepReport* r) {
         r->guard_held[at] = st.guard_held;
         r->far_outward[at] = st.far_out;
         r->far_inward[at] = st.far_in;
+        r->respaced[at] = o.convergence.respacing(rule(o)) ? 1u : 0u;  // the state this step ran in
       }
-      if (!o.convergence.record(rule(), st.motion, nv,
+      if (!o.convergence.record(rule(o), st.motion, nv,
                                 (double(st.far_out) - double(st.far_in)) / nv))
         all_converged = false;
       if (o.convergence.stalled()) o.flags |= kObjectStalled;
@@ -531,12 +532,15 @@ Err Engine::update_regions() {
   return Err::ok;
 }
 
-ConvergenceRule Engine::rule() const {
+ConvergenceRule Engine::rule(const Object& o) const {
   ConvergenceRule c;
   c.convergence_mm = params_.convergence_mm;
   c.binary = params_.target_mode == TargetMode::binary;
   c.partial_volume_steps = params_.partial_volume_steps;
-  c.grey_respacing = params_.grey_respacing != 0;
+  // Automatic: free growth where the object's boundary is in view of its
+  // box (intensity_model.h), a tube or horn of its own contrast; elsewhere
+  // free growth is a leak as often as an organ.
+  c.grey_respacing = params_.grey_respacing == 1 || (params_.grey_respacing == 0 && o.model.boundary_in_view());
   return c;
 }
 

@@ -79,7 +79,8 @@ class Engine {
   Err check_seed(const char* call, uint32_t object, const double c[3], double r);
   uint32_t overlapped_object(uint32_t object, const double* x);
   void place(uint32_t object, const double c[3], double r, const double* x);
-  ConvergenceRule rule() const;
+  // Object o's rule: whether its grey levels re-space (grey_respacing).
+  ConvergenceRule rule(const Object& o) const;
   Err update_regions();
   friend struct EngineTesting;
 

@@ -59,8 +59,9 @@
     "several objects: a border vertex's positional weight, times lambda_p (thesis 6.3)")                  \
   X(region_interval, uint32_t, U32, 4, 1, 1000, CC, "steps",                                              \
     "several objects: steps between recomputations of the bounding regions")                              \
-  X(grey_respacing, uint32_t, U32, 0, 0, 1, CC, "",                                                       \
-    "grey levels: re-space the contour loops until the first rest (growth along tubes); 0 = off")
+  X(grey_respacing, uint32_t, U32, 0, 0, 2, CC, "",                                                       \
+    "grey levels: re-space the contour loops until the first rest (growth along tubes); "                 \
+    "0 = where the boundary is in view, 1 = always, 2 = never")
 
 namespace ffseg {
 

@@ -50,6 +50,7 @@ struct StepReport {
   uint32_t guard_held[kReportObjects] = {};   // vertices the step guard held to less than half their update
   uint32_t far_outward[kReportObjects] = {};  // vertices with a target more than a voxel outward
   uint32_t far_inward[kReportObjects] = {};   // ... and inward
+  uint32_t respaced[kReportObjects] = {};     // 1: the mesh re-spaced its contour loops this step
 };
 
 }  // namespace ffseg

@@ -293,6 +293,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
     obj_weight_ += double(min_count(s, ns)) / double(ns);
   }
   normalise_and_tabulate();  // the table includes the competition
+  in_view_ = obj_weight_ < kRareShare && rival_share(s.gamma) < kRivalShare;
   return st;
 }
 
@@ -397,6 +398,31 @@ double IntensityModel::g_direct(double v) const {
   }
   const double g = dv / peak_;
   return g < 1 ? g : 1;
+}
+
+double IntensityModel::rival_share(double gamma) const {
+  if (m_ == 0) return 1.0;
+  if (sm_ == 0) return 0.0;
+  // Every value g accepts lies within a few sd of some object class (g is
+  // the mixture's density over its peak); the sum runs over +-5 sd of each
+  // on a grid of a 64th of the narrowest, fine against any class's width.
+  double lo = INFINITY, hi = -INFINITY, step = INFINITY;
+  for (uint32_t i = 0; i < m_; ++i) {
+    const double sd = std::sqrt(comp_[i].var);
+    lo = std::fmin(lo, comp_[i].mean - 5 * sd);
+    hi = std::fmax(hi, comp_[i].mean + 5 * sd);
+    step = std::fmin(step, sd / 64);
+  }
+  if (!(step > 0) || !std::isfinite(hi - lo)) return 1.0;
+  double own = 0, rival = 0;
+  const uint32_t n = uint32_t(std::fmin((hi - lo) / step, 1e6));
+  for (uint32_t j = 0; j <= n; ++j) {
+    const double v = lo + (hi - lo) * j / n;
+    if (g_direct(v) < gamma) continue;
+    own += obj_weight_ * density(v);
+    for (uint32_t c = 0; c < sm_; ++c) rival += weighted_density(scene_[c], v);
+  }
+  return own + rival > 0 ? rival / (own + rival) : 1.0;
 }
 
 double IntensityModel::posterior_against(double v, const IntensityModel* const* others, uint32_t count) const {

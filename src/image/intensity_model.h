@@ -103,6 +103,23 @@
 // holds values within 2 sigma of its centre), S = 4 sigma_floor (a new bin only
 // beyond 4 sigma of every existing one), N_m = max(8, 5% of the samples).
 //
+// The boundary in view (fit(), boundary_in_view()). Whether the box around
+// the seed sees the object's boundary from outside: the object's grey level
+// is rare there (its classes hold less than kRareShare of the box's scene)
+// and the values it accepts (g >= Gamma, after the Bayes cut) are seldom the
+// rivals' (their scene mixture puts less than kRivalShare of the accepted
+// mass there: a false discovery rate of the object's own test, read from the
+// box's mixture). A tube or horn of its own contrast is such an object (the
+// tube phantom: 5% of its box, no rival mass; Colin27's frontal horn of a
+// lateral ventricle: 8-11%, 0.3-2.7%), and its mesh may then grow freely
+// along it (Params::grey_respacing, automatic). Where the object's grey level
+// fills its box (an organ of soft tissue in CT: 46-100% of it; Colin27's
+// caudate and putamen: 46-91% under jitter), or a rival class overlaps what
+// it accepts (Colin27's thalamus and hippocampus: 10-15% of the accepted mass
+// is white or grey matter), its mesh leaks through any gap the model leaves
+// open when it grows freely, and does not (BENCHMARKS.md section 12). Not
+// in view without a scene (fit_samples(), scene_competitors off).
+//
 // Samples: the voxels of the smoothed crop whose centres lie in the sphere, at
 // most max_samples of them (beyond, the coarsest lattice of box_lattice.h that
 // fits: the same voxels of the anatomy when the volume is stored flipped or
@@ -180,7 +197,7 @@ class IntensityModel {
                           char* msg = nullptr, size_t msg_len = 0);
 
   bool valid() const { return m_ > 0; }
-  void reset() { m_ = 0; sm_ = 0; lut_n_ = 0; }
+  void reset() { m_ = 0; sm_ = 0; lut_n_ = 0; in_view_ = false; }
   // Peak-normalised likelihood in [0, 1] (see the header note); table when there is one.
   double g(double v) const {
     if (lut_n_ > 0) {
@@ -216,6 +233,17 @@ class IntensityModel {
   // (g reads 0 there by the Bayes rule): true, and the mean of the competing
   // class most probable at v. False without competitors or where the object wins.
   bool rival_mean(double v, double* mean) const;
+
+  // The object's classes hold less than this share of the box's scene, and
+  // the rivals less than kRivalShare of the values it accepts: its boundary
+  // is in view (see the header note).
+  static constexpr double kRareShare = 0.25;
+  static constexpr double kRivalShare = 0.05;
+  bool boundary_in_view() const { return in_view_; }
+  // The rivals' share of the mass the object's test accepts (g >= gamma):
+  // sum_c a_c f_c over a_o f_obj + sum_c a_c f_c, integrated where g >= gamma.
+  // 1 without classes; 0 without rivals.
+  double rival_share(double gamma) const;
 
   uint32_t components() const { return m_; }
   uint32_t competitors() const { return sm_; }
@@ -260,6 +288,7 @@ class IntensityModel {
   double sigma_floor_ = 0;
   uint32_t lut_n_ = 0;
   double lut_v0_ = 0, lut_inv_step_ = 1;
+  bool in_view_ = false;
 };
 
 }  // namespace ffseg

@@ -63,10 +63,13 @@ TEST_CASE("abi: reserved fields are zeroed by init_default and must stay 0") {
   q.struct_size = uint32_t(offsetof(ffseg_params, reserved1));
   CHECK(ffseg_set_params(eb.e, &q) == FFSEG_OK);
   // grey_respacing (0.7.0) sits where reserved2 had to be 0: 0 is its
-  // default, so a 0.3-0.6 caller keeps its meaning; beyond 1 it is refused.
+  // default (since 0.8.0 automatic, 2 is 0.7.0's off), so a 0.3-0.6 caller
+  // gets the default; beyond 2 it is refused.
   CHECK(p.grey_respacing == 0u);
   q = p;
   q.grey_respacing = 2;
+  CHECK(ffseg_set_params(eb.e, &q) == FFSEG_OK);
+  q.grey_respacing = 3;
   CHECK(ffseg_set_params(eb.e, &q) == FFSEG_ERR_INVALID_ARGUMENT);
   CHECK(std::string(ffseg_last_error(eb.e)).find("grey_respacing") != std::string::npos);
   // A 0.2 caller (ending after reserved1) is not refused for it.

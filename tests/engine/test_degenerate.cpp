@@ -223,3 +223,30 @@ TEST_CASE("degenerate: a caller of the 0.3 layout gets its fields and keeps the 
   CHECK(ffseg_step(b.eb.e, &info) == FFSEG_ERR_STRUCT_SIZE);
   CHECK(info.step_index == 0xABABABABu);
 }
+
+TEST_CASE("degenerate: a caller of the 0.5-0.7 layout gets the far counts and keeps the bytes past them") {
+  const int64_t dims[3] = {24, 24, 24};
+  const ffseg_test::Phantom ball =
+      ffseg_test::make_phantom(dims, kIdentity, [](const double* p) {
+        const double dx = p[0] - 12, dy = p[1] - 12, dz = p[2] - 12;
+        return dx * dx + dy * dy + dz * dz <= 64.0;
+      });
+  Binary b(ball);
+  const double c[3] = {12, 12, 12};
+  b.place(0, c, 3);
+  const size_t old_size = offsetof(ffseg_step_info, respaced);
+  ffseg_step_info info;
+  std::memset(&info, 0xAB, sizeof info);
+  info.struct_size = uint32_t(old_size);
+  REQUIRE(ffseg_step(b.eb.e, &info) == FFSEG_OK);
+  CHECK(info.far_outward[0] != 0xABABABABu);  // the 0.5 fields are written
+  const unsigned char* tail = reinterpret_cast<const unsigned char*>(&info) + old_size;
+  bool untouched = true;
+  for (size_t q = 0; q < sizeof info - old_size; ++q) untouched = untouched && tail[q] == 0xAB;
+  CHECK(untouched);
+  // The whole struct: a binary mesh growing from its sphere re-spaces its loops.
+  info.struct_size = sizeof info;
+  REQUIRE(ffseg_step(b.eb.e, &info) == FFSEG_OK);
+  CHECK(info.respaced[0] == 1u);
+  CHECK(info.respaced[1] == 0u);  // no object there
+}

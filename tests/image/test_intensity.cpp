@@ -871,6 +871,62 @@ TEST_CASE("intensity: a small object's class, too rare for a bin of the scene, s
   CHECK(model.g(50) < 0.2);  // past the densities' crossing the background wins
 }
 
+// A ball 6 mm across at 100 (noise sd 10, 1 mm voxels) in a box whose
+// other voxels are given by outside(i): the model fitted from a sphere in it.
+struct BoxFit {
+  TestVolume<float> v{41, 41, 41, 1.0, 1.0, 1.0};
+  SmoothedRoi roi;
+  IntensityModel model;
+  template <class Outside>
+  explicit BoxFit(Outside outside) {
+    Rng rng(78);
+    for (int64_t k = 0; k < 41; ++k)
+      for (int64_t j = 0; j < 41; ++j)
+        for (int64_t i = 0; i < 41; ++i) {
+          const double d2 = double((i - 20) * (i - 20) + (j - 20) * (j - 20) + (k - 20) * (k - 20));
+          v.at(i, j, k) = float((d2 <= 9.0 ? 100.0 : outside(i)) + 10.0 * rng.normal());
+        }
+    REQUIRE(v.finish(VoxelType::F32));
+    Carved mem([&](Arena& a) {
+      roi.carve(a, 41 * 41 * 41, kCpu);
+      model.carve(a, 4096, kCpu);
+    });
+    REQUIRE(mem.ok);
+    const int64_t lo[3] = {0, 0, 0}, hi[3] = {41, 41, 41};
+    SmoothingSettings ss;
+    ss.stats_lo = lo;
+    ss.stats_hi = hi;
+    REQUIRE(roi.compute(v.view, lo, hi, ss) == RoiStatus::ok);
+    const double c[3] = {20, 20, 20};
+    REQUIRE(model.fit(roi, c, 2.5, IntensityModelSettings()) == ModelStatus::ok);
+  }
+};
+
+TEST_CASE("intensity: the boundary is in view where the object's grey level is rare in its box and no rival overlaps it") {
+  // A small ball of its own contrast (a tube's or a horn's case): in view.
+  BoxFit alone([](int64_t) { return 0.0; });
+  CHECK(alone.model.rival_share(0.2) < 0.01);
+  CHECK(alone.model.boundary_in_view());
+  // The object's grey level fills the box (an organ of soft tissue among
+  // others of its level): nothing outside it is seen.
+  BoxFit filled([](int64_t) { return 100.0; });
+  CHECK(filled.model.object_scene_weight() > 0.9);
+  CHECK_FALSE(filled.model.boundary_in_view());
+  // Rare, but half the box lies one and a half noise sd away (a nucleus
+  // beside white matter): the rivals hold much of what the object accepts.
+  BoxFit near([](int64_t i) { return i < 20 ? 0.0 : 125.0; });
+  CHECK(near.model.object_scene_weight() < IntensityModel::kRareShare);
+  CHECK(near.model.rival_share(0.2) > IntensityModel::kRivalShare);
+  CHECK_FALSE(near.model.boundary_in_view());
+  // Without a scene (fit_samples) nothing is in view.
+  IntensityModel bare;
+  Carved mem([&](Arena& a) { bare.carve(a, 64, kCpu); });
+  REQUIRE(mem.ok);
+  const float x[4] = {99, 100, 101, 100};
+  REQUIRE(bare.fit_samples(x, 4, 10.0, IntensityModelSettings()) == ModelStatus::ok);
+  CHECK_FALSE(bare.boundary_in_view());
+}
+
 TEST_CASE("intensity: a few percent of air in the box does not widen the model (the contrast within Tukey's fences)") {
   // A CT-like scene at 3 mm: a fluid ball of 5 HU (radius 12 mm) in a 45 HU
   // organ, a -100 HU fat slab, and a gas pocket of -1000 HU holding about 6%

@@ -275,6 +275,12 @@ struct EngineRun {
   std::vector<uint8_t> start;
   std::vector<double> first_run_scale;
   std::vector<std::array<double, 3>> far;  // outward, inward, vertices: at each object's last moving step
+  // Steps of the last pass in which each object's mesh re-spaced its loops
+  // (ffseg_step_info.respaced), and whether its first step did: a grey-level
+  // object then grows freely (grey_respacing; by default where its boundary
+  // is in view).
+  std::vector<int64_t> respaced_steps;
+  std::vector<uint8_t> grows_freely;
   // Seconds: every pass's engine setup; the last pass's steps (as stage_us).
   double t_setup = 0, t_stepping = 0;
   // Every pass's steps and stepping (the first run's and the finer run's):
@@ -431,6 +437,8 @@ bool step_to_rest(const SegmentRequest& rq, EngineRun* run, int64_t limit, bool 
     run->steps = 0;
     run->border_vertices.assign(nobj, 0);
     run->far.assign(nobj, {0.0, 0.0, 0.0});
+    run->respaced_steps.assign(nobj, 0);
+    run->grows_freely.assign(nobj, 0);
   }
   const auto t0 = std::chrono::steady_clock::now();
   Progress progress(!rq.quiet, rq.max_steps, nobj);
@@ -452,6 +460,10 @@ bool step_to_rest(const SegmentRequest& rq, EngineRun* run, int64_t limit, bool 
     if (st < 0) engine_fail(run->ws.e, st, "step " + std::to_string(s + 1));
     run->steps = s + 1;
     for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) run->stage_us[g] += info.stage_us[g];
+    for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k) {
+      run->respaced_steps[k] += info.respaced[k];
+      if (s == 0) run->grows_freely[k] = info.respaced[k] != 0 && rq.params.target_mode != FFSEG_TARGET_BINARY;
+    }
     for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k)
       if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0) {
         run->border_vertices[k] = info.border_vertices[k];
@@ -771,6 +783,8 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
       o.set("stalled", run.stalled[k] != 0);
       o.set("final_far_outward", uint64_t(run.far[k][0]));
       o.set("final_far_inward", uint64_t(run.far[k][1]));
+      o.set("respaced_steps", run.respaced_steps[k]);
+      if (rq.params.target_mode != FFSEG_TARGET_BINARY) o.set("grows_freely", run.grows_freely[k] != 0);
     }
     if (run.start_from_coarse) {
       o.set("kept_first_run_surface", run.from_coarse[k] != 0);
@@ -930,6 +944,19 @@ bool warn_stalls(const SegmentRequest& rq, const EngineRun& run) {
                  out ? "stops short of" : "overshoots", kExitStalled);
   }
   return any;
+}
+
+// A grey-level object whose mesh grew freely by the automatic rule (its
+// boundary in view: a tube, duct or cavity of its own contrast) may also
+// have followed its grey level out of the organ; the user is told how to
+// keep it from doing so.
+void note_free_growth(const SegmentRequest& rq, const EngineRun& run) {
+  if (rq.quiet || rq.params.grey_respacing != 0) return;
+  for (uint32_t k = 0; k < rq.objects() && k < run.grows_freely.size(); ++k)
+    if (run.grows_freely[k])
+      std::fprintf(stderr, "ffseg: note: object %u (%s): its grey level is rare around its sphere and unlike its "
+                   "neighbours', so its mesh grew freely along it, as along a vessel or a ventricle "
+                   "(--param grey_respacing=2 keeps it compact)\n", k + 1, rq.names[k].c_str());
 }
 
 // The summary on stdout: one line per object, from the report.
@@ -1157,6 +1184,7 @@ int cmd_segment(int argc, char** argv) {
   check_interrupted();
   move_into_place(rq, &tmp, &sides);
   print_summary(rq, run, res, rep, shared_voxels);
+  note_free_growth(rq, run);
   return warn_stalls(rq, run) ? kExitStalled : kExitOk;
 }
 

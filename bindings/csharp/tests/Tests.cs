@@ -116,12 +116,15 @@ static class Tests {
       Params p = Params.Default();
       p.Reserved1 = 3;
       Assert(Throws(() => e.SetParams(p)).Status == Status.ErrInvalidArgument, "reserved1 refused");
-      // GreyRespacing (0.7.0): off by default, a switch (2 refused by name).
+      // GreyRespacing: 0 automatic (the default since 0.8.0), 1 always, 2
+      // never; 3 refused by name.
       Params q = Params.Default();
       Assert(q.GreyRespacing == 0, "grey_respacing default " + q.GreyRespacing);
       q.GreyRespacing = 1;
       e.SetParams(q);
       q.GreyRespacing = 2;
+      e.SetParams(q);
+      q.GreyRespacing = 3;
       ex = Throws(() => e.SetParams(q));
       Assert(ex.Status == Status.ErrInvalidArgument && ex.Detail.Contains("grey_respacing"), ex.Message);
     }

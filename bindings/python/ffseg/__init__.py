@@ -187,7 +187,7 @@ class StepInfo:
     """What one ffseg_step reported: step_index, active_objects, per-object
     lists (mean_displacement_mm, vertices_with_target, flips_avoided,
     intersections_avoided, border_vertices, object_flags, guard_held, far_outward,
-    far_inward; one entry per object, at most 16), flags_all (every object's OBJECT_* flags or-ed; non-zero: some
+    far_inward, respaced (1: the mesh re-spaced its loops that step; 0.8.0); one entry per object, at most 16), flags_all (every object's OBJECT_* flags or-ed; non-zero: some
     result is no segmentation) and stage_us, a dict of microseconds by stage name."""
 
     def __init__(self, raw, objects):
@@ -196,7 +196,7 @@ class StepInfo:
         self.active_objects = raw.active_objects
         for f in ("mean_displacement_mm", "vertices_with_target", "flips_avoided",
                   "intersections_avoided", "border_vertices", "object_flags", "guard_held",
-                  "far_outward", "far_inward"):
+                  "far_outward", "far_inward", "respaced"):
             setattr(self, f, list(getattr(raw, f))[:n])
         self.flags_all = int(raw.flags_all)
         self.stage_us = {name: int(raw.stage_us[i]) for i, name in enumerate(STAGE_NAMES)}

@@ -75,7 +75,7 @@ class Params(C.Structure):
         ("region_width_mm", C.c_double),
         ("border_weight", C.c_double),
         ("region_interval", C.c_uint32),
-        ("grey_respacing", C.c_uint32),  # since 0.7.0 (reserved2 before)
+        ("grey_respacing", C.c_uint32),  # since 0.7.0 (reserved2 before); 0 automatic since 0.8.0
     ]
 
 
@@ -112,6 +112,7 @@ class StepInfo(C.Structure):
         ("guard_held", C.c_uint32 * REPORT_OBJECTS),
         ("far_outward", C.c_uint32 * REPORT_OBJECTS),
         ("far_inward", C.c_uint32 * REPORT_OBJECTS),
+        ("respaced", C.c_uint32 * REPORT_OBJECTS),  # since 0.8.0
     ]
 
 

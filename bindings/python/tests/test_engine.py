@@ -132,12 +132,15 @@ def test_refusals_raise_ffseg_error_with_status_and_message():
         e.set_params(target_mode="levelset")
     with pytest.raises(ffseg.Error, match="diffusion_iterations"):
         e.set_params(diffusion_iterations=2.5)
-    # grey_respacing (0.7.0) is a switch: 0 by default, 1 taken, 2 refused by name.
+    # grey_respacing: 0 (automatic, the default since 0.8.0), 1 always, 2
+    # never; 3 refused by name.
     assert e.params["grey_respacing"] == 0
     e.set_params(grey_respacing=1)
     assert e.params["grey_respacing"] == 1
+    e.set_params(grey_respacing=2)
+    assert e.params["grey_respacing"] == 2
     with pytest.raises(ffseg.Error, match="grey_respacing"):
-        e.set_params(grey_respacing=2)
+        e.set_params(grey_respacing=3)
     with pytest.raises(ValueError, match="unsupported voxel dtype int8"):
         e.set_volume(vol.astype(np.int8), affine())
     with pytest.raises(ValueError, match="unsupported voxel dtype bool"):
@@ -320,6 +323,23 @@ def test_a_forced_stall_is_degenerate_and_flagged_stalled():
                 assert e.last_status == ffseg.CONVERGED
                 assert info.object_flags == [0]
                 assert info.far_outward[0] + info.far_inward[0] < 0.05 * nv
+
+
+def test_a_small_ball_of_its_own_contrast_grows_freely_by_default_and_the_step_says_so():
+    # Grey levels: the ball's boundary is in view of the box around the
+    # sphere (its level is rare there and no other class overlaps it), so by
+    # default its loops are re-spaced while it grows; never with 2, always
+    # with 1 (a ball filling its box, below, is not in view).
+    centre = (32.0, 32.0, 32.0)
+    small = ball((64, 64, 64), centre, 6.0, dtype=np.float32, inside=100, outside=0, noise=10.0)
+    filled = ball((64, 64, 64), centre, 40.0, dtype=np.float32, inside=100, outside=0, noise=10.0)
+    for vol, mode, expect in ((small, 0, 1), (small, 2, 0), (filled, 0, 0), (filled, 1, 1)):
+        with ffseg.Engine(max_objects=1, mesh_resolution=12) as e:
+            e.set_params(target_mode="intensity", grey_respacing=mode)
+            e.set_volume(vol, affine())
+            e.init_sphere(0, centre, 3.0)
+            e.step()
+            assert e.last_step_info.respaced == [expect], (vol is small, mode)
 
 
 def test_workspace_sizing_follows_the_tool():

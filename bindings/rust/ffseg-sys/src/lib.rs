@@ -12,7 +12,7 @@ use std::os::raw::c_char;
 pub type ffseg_status = i32;
 
 pub const FFSEG_VERSION_MAJOR: u32 = 0;
-pub const FFSEG_VERSION_MINOR: u32 = 7;
+pub const FFSEG_VERSION_MINOR: u32 = 8;
 pub const FFSEG_VERSION_PATCH: u32 = 0;
 pub const FFSEG_VERSION_NUMBER: u32 =
     FFSEG_VERSION_MAJOR * 10000 + FFSEG_VERSION_MINOR * 100 + FFSEG_VERSION_PATCH;
@@ -113,7 +113,8 @@ pub struct ffseg_params {
     pub region_width_mm: f64,
     pub border_weight: f64,
     pub region_interval: u32,
-    /// Since 0.7.0 (reserved2 before): grey-level targets re-space their loops until the first rest.
+    /// Since 0.7.0 (reserved2 before): grey-level targets re-space their loops until the first rest;
+    /// since 0.8.0 0 is automatic (where the boundary is in view), 1 always, 2 never.
     pub grey_respacing: u32,
 }
 
@@ -152,6 +153,8 @@ pub struct ffseg_step_info {
     pub guard_held: [u32; FFSEG_REPORT_OBJECTS],
     pub far_outward: [u32; FFSEG_REPORT_OBJECTS],
     pub far_inward: [u32; FFSEG_REPORT_OBJECTS],
+    // Since 0.8.0 (a 0.5-0.7 struct_size ends before this).
+    pub respaced: [u32; FFSEG_REPORT_OBJECTS],
 }
 
 impl Default for ffseg_config {

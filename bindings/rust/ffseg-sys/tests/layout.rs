@@ -42,7 +42,7 @@ fn rust_layout() -> BTreeMap<String, (usize, usize)> {
     strukt!(m, ffseg_step_info, [struct_size, step_index, active_objects, reserved0,
         mean_displacement_mm, vertices_with_target, flips_avoided, intersections_avoided,
         border_vertices, stage_us, object_flags, flags_all, reserved1, guard_held, far_outward,
-        far_inward]);
+        far_inward, respaced]);
     m
 }
 

@@ -47,7 +47,7 @@ pub type Config = sys::ffseg_config;
 pub type Params = sys::ffseg_params;
 /// What one step did (`ffseg_step_info`): per object (at most
 /// `sys::FFSEG_REPORT_OBJECTS`) `object_flags`, and since 0.5.0 `guard_held`,
-/// `far_outward`, `far_inward`.
+/// `far_outward`, `far_inward`, and since 0.8.0 `respaced`.
 pub type StepInfo = sys::ffseg_step_info;
 
 /// `StepInfo::object_flags` bits: no vertex ever found a boundary.

@@ -73,12 +73,15 @@ fn errors_carry_status_and_message() {
     let mut p = Params::default();
     p.reserved1 = 7;
     assert_eq!(e.set_params(&p).unwrap_err().status(), sys::FFSEG_ERR_INVALID_ARGUMENT);
-    // grey_respacing (0.7.0): off by default, a switch (2 is refused by name).
+    // grey_respacing: 0 automatic (the default since 0.8.0), 1 always, 2
+    // never; 3 is refused by name.
     let mut q = Params::default();
     assert_eq!(q.grey_respacing, 0);
     q.grey_respacing = 1;
     e.set_params(&q).unwrap();
     q.grey_respacing = 2;
+    e.set_params(&q).unwrap();
+    q.grey_respacing = 3;
     let err = e.set_params(&q).unwrap_err();
     assert_eq!(err.status(), sys::FFSEG_ERR_INVALID_ARGUMENT);
     assert!(err.message().contains("grey_respacing"), "message: {}", err.message());
