@@ -299,6 +299,7 @@ ModelStatus IntensityModel::fit(const SmoothedRoi& roi, const double c[3], doubl
 
 ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma_floor,
                                         const IntensityModelSettings& s, char* msg, size_t msg_len) {
+  in_view_ = false;  // no scene: nothing outside the object is seen
   const ModelStatus st = fit_object(x, n, sigma_floor, s, msg, msg_len);
   if (st == ModelStatus::ok) normalise_and_tabulate();
   return st;
@@ -405,7 +406,8 @@ double IntensityModel::rival_share(double gamma) const {
   if (sm_ == 0) return 0.0;
   // Every value g accepts lies within a few sd of some object class (g is
   // the mixture's density over its peak); the sum runs over +-5 sd of each
-  // on a grid of a 64th of the narrowest, fine against any class's width.
+  // on a grid of a 64th of the narrowest (at most 2^16 points: classes far
+  // apart), fine against any class's width.
   double lo = INFINITY, hi = -INFINITY, step = INFINITY;
   for (uint32_t i = 0; i < m_; ++i) {
     const double sd = std::sqrt(comp_[i].var);
@@ -415,7 +417,7 @@ double IntensityModel::rival_share(double gamma) const {
   }
   if (!(step > 0) || !std::isfinite(hi - lo)) return 1.0;
   double own = 0, rival = 0;
-  const uint32_t n = uint32_t(std::fmin((hi - lo) / step, 1e6));
+  const uint32_t n = uint32_t(std::fmin((hi - lo) / step, 65536.0));
   for (uint32_t j = 0; j <= n; ++j) {
     const double v = lo + (hi - lo) * j / n;
     if (g_direct(v) < gamma) continue;
