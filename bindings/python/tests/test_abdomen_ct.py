@@ -80,6 +80,16 @@ def organ_3mm(organ, out):
     return o["metrics"]["dice"], o["volume_ml"] / o["metrics"]["truth_volume_ml"]
 
 
+def test_the_portal_vein_at_3mm_is_segmented_not_refused_as_no_boundary(tmp_path):
+    # Its sphere (4.5 mm) sees a box whose classes binning merges into one
+    # broad class (-34 +- 40 HU) that beat the vein's own (41 +- 22) at its
+    # mean: the model refused its own grey level and the tool said "no vertex
+    # found a boundary" (exit 5). That class now counts as the vein's own.
+    d, ratio = organ_3mm(9, str(tmp_path / "portal_vein"))
+    print(f"portal vein: Dice {d:.3f}, volume {ratio:.2f}x the label's")
+    assert d >= 0.4  # 0.484 measured
+
+
 # Issue 30's choosing set at 3 mm, alone, CLI defaults: today's figures
 # (BENCHMARKS section 11) less a margin. The gallbladder's floor is what the
 # model's contrast scale within Tukey's fences bought (0.06 and 21x its
