@@ -73,7 +73,12 @@
 // the one background class then claimed it, became "own" and nothing
 // competed, so the partial-volume level of intensity_search.h had no rival
 // and the grey boundary stayed half a voxel inside). Its scene weight is
-// then at most binning's minimum share N_m / n, and a_o is taken as that. A value is then object only if, besides g >= Gamma,
+// then at most binning's minimum share N_m / n, and a_o is taken as that. A
+// competitor more probable than the object at one of the object's own class
+// means is counted as the object's own as well: the box does not tell them
+// apart, and as a rival it would make the object refuse its own sphere's
+// grey level (the CT's portal vein at 3 mm: a broad class of the box, -34 +-
+// 40 HU, beat the vein's 41 +- 22 at 41, and no vertex found a boundary). A value is then object only if, besides g >= Gamma,
 //   a_o f_obj(v) >= sum_competitors a_c f_c(v),
 // the Bayes decision between the object (its class-conditional density taken
 // from the sphere) and the scene's other classes; g(v) reads 0 where it fails.
