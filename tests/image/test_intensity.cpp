@@ -912,12 +912,21 @@ TEST_CASE("intensity: the boundary is in view where the object's grey level is r
   BoxFit filled([](int64_t) { return 100.0; });
   CHECK(filled.model.object_scene_weight() > 0.9);
   CHECK_FALSE(filled.model.boundary_in_view());
-  // Rare, but half the box lies one and a half noise sd away (a nucleus
-  // beside white matter): the rivals hold much of what the object accepts.
-  BoxFit near([](int64_t i) { return i < 20 ? 0.0 : 125.0; });
+  // Rare, but half the box lies three noise sd away (a nucleus beside white
+  // matter): the rivals hold much of what the object accepts.
+  BoxFit near([](int64_t i) { return i < 20 ? 0.0 : 130.0; });
   CHECK(near.model.object_scene_weight() < IntensityModel::kRareShare);
+  CHECK(near.model.g(100) > 0.5);
   CHECK(near.model.rival_share(0.2) > IntensityModel::kRivalShare);
   CHECK_FALSE(near.model.boundary_in_view());
+  // Two and a half sd away the half box's class would be more probable than
+  // the object at the object's own mean (the object's scene weight is only
+  // binning's minimum share): it counts as the object's own instead, so the
+  // object still accepts its own grey level, and is not rare.
+  BoxFit nearer([](int64_t i) { return i < 20 ? 0.0 : 125.0; });
+  CHECK(nearer.model.object_scene_weight() > 0.5);
+  CHECK(nearer.model.g(100) > 0.5);
+  CHECK_FALSE(nearer.model.boundary_in_view());
   // Without a scene (fit_samples) nothing is in view.
   IntensityModel bare;
   Carved mem([&](Arena& a) { bare.carve(a, 64, kCpu); });
