@@ -86,7 +86,7 @@ struct PatchCertificate {
   // Per call.
   double* box = nullptr;     // 6 per cluster: lo xyz, hi xyz
   double* nsum = nullptr;    // 3 per cluster: sum of its triangles' normals
-  uint32_t* order = nullptr; // clusters by box lo x (kept between calls: nearly sorted)
+  uint32_t* order = nullptr; // clusters by box lo x (kept between calls: ties stay in their order)
   uint32_t* failed = nullptr;
   uint32_t nfailed = 0;
   uint8_t* is_failed = nullptr;  // per cluster, per call: its window is in failed
