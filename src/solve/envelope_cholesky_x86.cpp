@@ -40,8 +40,10 @@ FFSEG_AVX2 static inline void transpose4(__m256d& a, __m256d& b, __m256d& c, __m
 struct KAvx2 {
   // The tile's four rows minus their dot products, turned into columns so
   // that each column's recurrence runs over the four rows at once: the
-  // portable loop's subtractions and products, lane by lane, without the
-  // round trips through memory its scalar updates of X took.
+  // scalar loop's operations as GCC compiles it for these targets (each
+  // x -= a b one fused multiply-add, written out here so that it does not
+  // hang on the compiler's choice), lane by lane, without the round trips
+  // through memory its scalar updates of X took.
   FFSEG_AVX2 static inline void solve_tile(double* X, std::size_t wr, const double* D, std::size_t wj,
                                            const double* inv, const double* acc) {
     __m256d c0 = _mm256_sub_pd(_mm256_loadu_pd(X), _mm256_loadu_pd(acc));
@@ -53,14 +55,14 @@ struct KAvx2 {
     const double* d2 = D + 2 * wj;
     const double* d3 = D + 3 * wj;
     c0 = _mm256_mul_pd(c0, _mm256_set1_pd(inv[0]));
-    c1 = _mm256_sub_pd(c1, _mm256_mul_pd(c0, _mm256_set1_pd(d1[0])));
+    c1 = _mm256_fnmadd_pd(c0, _mm256_set1_pd(d1[0]), c1);
     c1 = _mm256_mul_pd(c1, _mm256_set1_pd(inv[1]));
-    c2 = _mm256_sub_pd(c2, _mm256_mul_pd(c0, _mm256_set1_pd(d2[0])));
-    c2 = _mm256_sub_pd(c2, _mm256_mul_pd(c1, _mm256_set1_pd(d2[1])));
+    c2 = _mm256_fnmadd_pd(c0, _mm256_set1_pd(d2[0]), c2);
+    c2 = _mm256_fnmadd_pd(c1, _mm256_set1_pd(d2[1]), c2);
     c2 = _mm256_mul_pd(c2, _mm256_set1_pd(inv[2]));
-    c3 = _mm256_sub_pd(c3, _mm256_mul_pd(c0, _mm256_set1_pd(d3[0])));
-    c3 = _mm256_sub_pd(c3, _mm256_mul_pd(c1, _mm256_set1_pd(d3[1])));
-    c3 = _mm256_sub_pd(c3, _mm256_mul_pd(c2, _mm256_set1_pd(d3[2])));
+    c3 = _mm256_fnmadd_pd(c0, _mm256_set1_pd(d3[0]), c3);
+    c3 = _mm256_fnmadd_pd(c1, _mm256_set1_pd(d3[1]), c3);
+    c3 = _mm256_fnmadd_pd(c2, _mm256_set1_pd(d3[2]), c3);
     c3 = _mm256_mul_pd(c3, _mm256_set1_pd(inv[3]));
     transpose4(c0, c1, c2, c3);
     _mm256_storeu_pd(X, c0);

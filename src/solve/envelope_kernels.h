@@ -35,9 +35,12 @@ namespace envelope_kernels {
 //            block D (stride wj) and inverse pivots inv, acc the rows' dot
 //            products with it (dot4x4): column j by column,
 //              X_ij = (X_ij - acc[4 i + j] - sum_{m < j} X_im D_jm) inv_j,
-//            the sum taken in m order, each product rounded before it is
-//            subtracted (no fused multiply-add): the same operations in
-//            every kernel, four rows at a time in the wide ones.
+//            the sum taken in m order: each kernel does what the scalar
+//            loop does compiled for its target, four rows at a time in the
+//            wide ones. (The x86 kernels' targets have FMA, and GCC, whose
+//            C++ default is -ffp-contract=fast, fuses the loop's x -= a b
+//            into one rounding there; the portable kernel rounds the product
+//            first.)
 
 // Plain view of the solver's arrays for the templated drivers.
 struct View {
