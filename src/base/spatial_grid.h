@@ -150,16 +150,29 @@ class SpatialGrid : public CellTable {
       if (first == end || skip(first)) return;
       for (uint32_t k0 = first; k0 < end; k0 += kChunk) {
         const uint32_t k1 = end - k0 < kChunk ? end : k0 + kChunk;
-        uint32_t n = 0;
-        for (uint32_t k = k0; k < k1; ++k) {
-          const double* p = sorted_ + 3 * size_t(k);
-          const double dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2];
-          in[n] = ids_[k];
-          n += uint32_t((cellkey_[k] == pc) & (dx * dx + dy * dy + dz * dz <= r2));
-        }
+        const uint32_t n = in_ball(k0, k1, pc, c, r2, in);
         for (uint32_t i = 0; i < n; ++i) f(in[i]);
       }
     });
+  }
+  // The ids of slots k0 <= k < k1 in cell pc within sqrt(r2) of c, in slot
+  // order, into in; returns how many. Not inlined: inside the callers'
+  // loops (the fold prevention's conflict test around it) the compiler ran
+  // out of registers and kept this loop's pointers and key on the stack.
+  __attribute__((noinline)) uint32_t in_ball(uint32_t k0, uint32_t k1, uint64_t pc, const double c[3], double r2,
+                                             uint32_t* in) const {
+    const double cx = c[0], cy = c[1], cz = c[2];
+    const double* sorted = sorted_;
+    const uint64_t* key = cellkey_;
+    const uint32_t* ids = ids_;
+    uint32_t n = 0;
+    for (uint32_t k = k0; k < k1; ++k) {
+      const double* p = sorted + 3 * size_t(k);
+      const double dx = p[0] - cx, dy = p[1] - cy, dz = p[2] - cz;
+      in[n] = ids[k];
+      n += uint32_t((key[k] == pc) & (dx * dx + dy * dy + dz * dz <= r2));
+    }
+    return n;
   }
 
   // Calls f(first, end) for every bucket holding points: its slots in
@@ -295,16 +308,39 @@ class BoxGrid : public CellTable {
   void for_each_owned_entry(const double* lo, const double* hi, F&& f) const {
     for_each_owned_entry(range_of(lo, hi), f);
   }
+  // A bucket's entries are listed first, without branches (a cell's key and
+  // its low-cell bits are a coin toss each), then handed to f in bucket
+  // order: the walk's loads stay in registers instead of being read again
+  // after every call of f, which may write anywhere but to the grid.
   template <class F>
   void for_each_owned_entry(const Range& r, F&& f) const {
     const int64_t c0 = r.a[0], c1 = r.a[1], c2 = r.a[2];
+    constexpr uint32_t kChunk = 64;
+    uint32_t got[kChunk];
     for_each_cell_of(r, [&](int64_t x, int64_t y, int64_t z) {
       const uint32_t low = uint32_t(x == c0) | uint32_t(y == c1) << 1 | uint32_t(z == c2) << 2;
       const uint32_t hb = hash(x, y, z);
       const uint32_t pc = pack(x, y, z);
-      for (uint32_t k = start_[hb]; k < start_[hb + 1]; ++k)
-        if (key_[k] == pc && ((ids_[k] >> kLowShift) | low) == 7) f(ids_[k] & kIdMask);
+      const uint32_t first = start_[hb], end = start_[hb + 1];
+      for (uint32_t k0 = first; k0 < end; k0 += kChunk) {
+        const uint32_t k1 = end - k0 < kChunk ? end : k0 + kChunk;
+        const uint32_t n = owned_in(k0, k1, pc, low, got);
+        for (uint32_t i = 0; i < n; ++i) f(got[i]);
+      }
     });
+  }
+  // The ids of slots k0 <= k < k1 in cell pc whose low-cell bits with low
+  // make the cell their pair's owner, into got, in slot order; how many.
+  uint32_t owned_in(uint32_t k0, uint32_t k1, uint32_t pc, uint32_t low, uint32_t* got) const {
+    const uint32_t* key = key_;
+    const uint32_t* ids = ids_;
+    uint32_t n = 0;
+    for (uint32_t k = k0; k < k1; ++k) {
+      const uint32_t id = ids[k];
+      got[n] = id & kIdMask;
+      n += uint32_t(key[k] == pc) & uint32_t(((id >> kLowShift) | low) == 7);
+    }
+    return n;
   }
 
   // Calls f(i, j) for every two entries i < j (box ids) of one bucket with

@@ -33,17 +33,6 @@ bool RegionMap::holds(const VolumeView& vol, const double* x, uint32_t nv, doubl
   return true;
 }
 
-// Nearest voxel of index-space point p, false off the grid.
-bool nearest_voxel(const VolumeView& vol, const double p[3], int64_t q[3]) {
-  const int64_t* D = vol.dims();
-  for (int a = 0; a < 3; ++a) {
-    if (!(p[a] > -0.5 && p[a] < double(D[a]) - 0.5)) return false;
-    q[a] = floor_i64(p[a] + 0.5);
-    if (q[a] >= D[a]) q[a] = D[a] - 1;
-  }
-  return true;
-}
-
 namespace {
 
 constexpr int kSpeedTable = 4096;

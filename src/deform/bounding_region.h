@@ -52,6 +52,7 @@
 #include "fast_marching.h"
 #include "intensity_model.h"
 #include "smoothing.h"
+#include "spatial_grid.h"  // floor_i64
 #include "volume.h"
 
 namespace ffseg {
@@ -109,8 +110,17 @@ RegionStatus compute_region(const CubeSphere& m, const double* x, const VolumeVi
                             double width_mm, FastMarching& fm, uint8_t* seed_mask, RegionMap& out, char* msg,
                             size_t msg_len);
 
-// Nearest voxel of index-space point p, false off the grid.
-bool nearest_voxel(const VolumeView& vol, const double p[3], int64_t q[3]);
+// Nearest voxel of index-space point p, false off the grid. Inline: the
+// searches ask it of every sample along every ray (RegionLimit::foreign).
+inline bool nearest_voxel(const VolumeView& vol, const double p[3], int64_t q[3]) {
+  const int64_t* D = vol.dims();
+  for (int a = 0; a < 3; ++a) {
+    if (!(p[a] > -0.5 && p[a] < double(D[a]) - 0.5)) return false;
+    q[a] = floor_i64(p[a] + 0.5);
+    if (q[a] >= D[a]) q[a] = D[a] - 1;
+  }
+  return true;
+}
 
 // Every object's region at once, for the ownership test: regions[i] for
 // object i < count (invalid ones own nothing and claim nothing).

@@ -86,7 +86,7 @@ struct PatchCertificate {
   // Per call.
   double* box = nullptr;     // 6 per cluster: lo xyz, hi xyz
   double* nsum = nullptr;    // 3 per cluster: sum of its triangles' normals
-  uint32_t* order = nullptr; // clusters by box lo x (kept between calls: nearly sorted)
+  uint32_t* order = nullptr; // clusters by box lo x (kept between calls: ties stay in their order)
   uint32_t* failed = nullptr;
   uint32_t nfailed = 0;
   uint8_t* is_failed = nullptr;  // per cluster, per call: its window is in failed
@@ -119,17 +119,35 @@ struct PatchCertificate {
 
   // Every pair of clusters (c, d), neither in the other's window, whose boxes
   // overlap; f(c, d) returns true to stop (then so does this, with true).
+  // The boxes are sorted by lo x: the clusters after i whose box starts
+  // within i's in x run up to the first that starts beyond it (found by
+  // bisection); among them, the ones overlapping in y and z are listed
+  // without branches (a coin toss each, most of them no), in order.
   template <class F>
   bool for_each_far_pair(F&& f) {
+    constexpr uint32_t kChunk = 64;
+    uint32_t cand[kChunk];
     for (uint32_t i = 0; i < ncl; ++i) {
       const double* bc = tn + 6 * size_t(i);
-      for (uint32_t j = i + 1; j < ncl; ++j) {
-        const double* bd = tn + 6 * size_t(j);
-        if (bd[0] > bc[3]) break;
-        if (bd[1] > bc[4] || bc[1] > bd[4] || bd[2] > bc[5] || bc[2] > bd[5]) continue;
-        const uint32_t c = order[i], d = order[j];
-        if (neighbours(c, d) || neighbours(d, c)) continue;
-        if (f(c, d)) return true;
+      const double hx = bc[3], ly = bc[1], hy = bc[4], lz = bc[2], hz = bc[5];
+      uint32_t lo = i + 1, hi = ncl;  // the first j >= lo with lo x beyond hx
+      while (lo < hi) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        if (tn[6 * size_t(mid)] > hx) hi = mid; else lo = mid + 1;
+      }
+      for (uint32_t j0 = i + 1; j0 < lo; j0 += kChunk) {
+        const uint32_t j1 = lo - j0 < kChunk ? lo : j0 + kChunk;
+        uint32_t n = 0;
+        for (uint32_t j = j0; j < j1; ++j) {
+          const double* bd = tn + 6 * size_t(j);
+          cand[n] = j;
+          n += uint32_t(!((bd[1] > hy) | (ly > bd[4]) | (bd[2] > hz) | (lz > bd[5])));
+        }
+        for (uint32_t k = 0; k < n; ++k) {
+          const uint32_t c = order[i], d = order[cand[k]];
+          if (neighbours(c, d) || neighbours(d, c)) continue;
+          if (f(c, d)) return true;
+        }
       }
     }
     return false;

@@ -99,6 +99,17 @@ struct KPortable {
       acc[3 * i + 2] = s2;
     }
   }
+  static inline void solve_tile(double* X, std::size_t wr, const double* D, std::size_t wj,
+                                const double* inv, const double* acc) {
+    for (int j = 0; j < 4; ++j) {
+      for (int i = 0; i < 4; ++i) {
+        double* xi = X + i * wr;
+        double x = xi[j] - acc[4 * i + j];
+        for (int m = 0; m < j; ++m) x -= xi[m] * D[j * wj + m];
+        xi[j] = x * inv[j];
+      }
+    }
+  }
   static inline void axpy4x3(const double* R, std::size_t wr, const double* x, double* y0,
                              double* y1, double* y2, std::size_t len) {
     const double* r0 = R;

@@ -24,7 +24,52 @@ FFSEG_AVX2 static inline __m256d hsum4(__m256d a, __m256d b, __m256d c, __m256d 
   return _mm256_add_pd(lo, hi);
 }
 
+// Rows r0..r3 (4 doubles each) <-> columns c0..c3: the 4 x 4 transpose,
+// its own inverse.
+FFSEG_AVX2 static inline void transpose4(__m256d& a, __m256d& b, __m256d& c, __m256d& d) {
+  const __m256d t0 = _mm256_unpacklo_pd(a, b);  // a0 b0 a2 b2
+  const __m256d t1 = _mm256_unpackhi_pd(a, b);  // a1 b1 a3 b3
+  const __m256d t2 = _mm256_unpacklo_pd(c, d);  // c0 d0 c2 d2
+  const __m256d t3 = _mm256_unpackhi_pd(c, d);  // c1 d1 c3 d3
+  a = _mm256_permute2f128_pd(t0, t2, 0x20);
+  b = _mm256_permute2f128_pd(t1, t3, 0x20);
+  c = _mm256_permute2f128_pd(t0, t2, 0x31);
+  d = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+
 struct KAvx2 {
+  // The tile's four rows minus their dot products, turned into columns so
+  // that each column's recurrence runs over the four rows at once: the
+  // scalar loop's operations as GCC compiles it for these targets (each
+  // x -= a b one fused multiply-add, written out here so that it does not
+  // hang on the compiler's choice), lane by lane, without the round trips
+  // through memory its scalar updates of X took.
+  FFSEG_AVX2 static inline void solve_tile(double* X, std::size_t wr, const double* D, std::size_t wj,
+                                           const double* inv, const double* acc) {
+    __m256d c0 = _mm256_sub_pd(_mm256_loadu_pd(X), _mm256_loadu_pd(acc));
+    __m256d c1 = _mm256_sub_pd(_mm256_loadu_pd(X + wr), _mm256_loadu_pd(acc + 4));
+    __m256d c2 = _mm256_sub_pd(_mm256_loadu_pd(X + 2 * wr), _mm256_loadu_pd(acc + 8));
+    __m256d c3 = _mm256_sub_pd(_mm256_loadu_pd(X + 3 * wr), _mm256_loadu_pd(acc + 12));
+    transpose4(c0, c1, c2, c3);
+    const double* d1 = D + wj;
+    const double* d2 = D + 2 * wj;
+    const double* d3 = D + 3 * wj;
+    c0 = _mm256_mul_pd(c0, _mm256_set1_pd(inv[0]));
+    c1 = _mm256_fnmadd_pd(c0, _mm256_set1_pd(d1[0]), c1);
+    c1 = _mm256_mul_pd(c1, _mm256_set1_pd(inv[1]));
+    c2 = _mm256_fnmadd_pd(c0, _mm256_set1_pd(d2[0]), c2);
+    c2 = _mm256_fnmadd_pd(c1, _mm256_set1_pd(d2[1]), c2);
+    c2 = _mm256_mul_pd(c2, _mm256_set1_pd(inv[2]));
+    c3 = _mm256_fnmadd_pd(c0, _mm256_set1_pd(d3[0]), c3);
+    c3 = _mm256_fnmadd_pd(c1, _mm256_set1_pd(d3[1]), c3);
+    c3 = _mm256_fnmadd_pd(c2, _mm256_set1_pd(d3[2]), c3);
+    c3 = _mm256_mul_pd(c3, _mm256_set1_pd(inv[3]));
+    transpose4(c0, c1, c2, c3);
+    _mm256_storeu_pd(X, c0);
+    _mm256_storeu_pd(X + wr, c1);
+    _mm256_storeu_pd(X + 2 * wr, c2);
+    _mm256_storeu_pd(X + 3 * wr, c3);
+  }
   FFSEG_AVX2 static inline void dot4x4(const double* R, std::size_t wr, const double* J,
                                        std::size_t wj, std::size_t len, double* acc) {
     const double* r0 = R;
@@ -213,6 +258,10 @@ struct KAvx512 {
       a[15] = _mm512_fmadd_pd(x, b3, a[15]);
     }
     for (int i = 0; i < 4; ++i) hsum4_512(a[4 * i], a[4 * i + 1], a[4 * i + 2], a[4 * i + 3], acc + 4 * i);
+  }
+  FFSEG_AVX512 static inline void solve_tile(double* X, std::size_t wr, const double* D, std::size_t wj,
+                                             const double* inv, const double* acc) {
+    KAvx2::solve_tile(X, wr, D, wj, inv, acc);
   }
   // The solve is memory-bound: the AVX2 versions are as fast.
   FFSEG_AVX512 static inline void dot4x3(const double* R, std::size_t wr, const double* y0,

@@ -30,6 +30,17 @@ namespace envelope_kernels {
 //   dot4x4:  acc[4 i + j] = sum_k R_i[k] J_j[k]
 //   dot4x3:  acc[3 i + r] = sum_k R_i[k] y_r[k]          (forward solve)
 //   axpy4x3: y_r[k] -= sum_i R_i[k] x[3 i + r]           (backward solve)
+//   solve_tile: the 4 x 4 tile X (rows at stride wr) of a row group in the
+//            columns of an earlier group, against that group's diagonal
+//            block D (stride wj) and inverse pivots inv, acc the rows' dot
+//            products with it (dot4x4): column j by column,
+//              X_ij = (X_ij - acc[4 i + j] - sum_{m < j} X_im D_jm) inv_j,
+//            the sum taken in m order: each kernel does what the scalar
+//            loop does compiled for its target, four rows at a time in the
+//            wide ones. (The x86 kernels' targets have FMA, and GCC, whose
+//            C++ default is -ffp-contract=fast, fuses the loop's x -= a b
+//            into one rounding there; the portable kernel rounds the product
+//            first.)
 
 // Plain view of the solver's arrays for the templated drivers.
 struct View {
@@ -142,17 +153,7 @@ inline int factor_impl(const View& v, uint32_t* bad_row, double* const* rhs, con
       const double* J = v.val + v.goff[gj];
       const uint32_t s = sr > sj ? sr : sj;
       K::dot4x4(R + (s - sr), wr, J + (s - sj), wj, c - s, acc);
-      double* X = R + (c - sr);
-      const double* D = J + (c - sj);  // diagonal block of group gj
-      const double* inv = v.invdiag + c;
-      for (int j = 0; j < 4; ++j) {
-        for (int i = 0; i < 4; ++i) {
-          double* xi = X + i * wr;
-          double x = xi[j] - acc[4 * i + j];
-          for (int m = 0; m < j; ++m) x -= xi[m] * D[j * wj + m];
-          xi[j] = x * inv[j];
-        }
-      }
+      K::solve_tile(R + (c - sr), wr, J + (c - sj), wj, v.invdiag + c, acc);
     }
     K::dot4x4(R, wr, R, wr, r - sr, acc);
     double* D = R + (r - sr);
