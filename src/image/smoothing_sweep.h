@@ -24,8 +24,8 @@ inline float face_flux(float d, float w, float ik) { return w * d / (1.0f + d * 
 
 // W voxels at once with the scalar code's exact operations and order (vector
 // lanes are IEEE single precision like the scalar unit, and no FMA is formed:
-// ISO mode compiles with -ffp-contract=off and the wide kernels' targets leave
-// out "fma"), so the result is bit-identical to the plain per-voxel update
+// the wide kernels' targets leave out "fma", which is what keeps GCC from
+// contracting a * b + c, since it does so in C++ whatever the -std mode), so the result is bit-identical to the plain per-voxel update
 // (every face that exists, in the order -u, +u, -v, +v, -w, +w) for every W.
 // The helpers below take and return 32- and 64-byte vectors; they are always
 // inlined into the kernels compiled for those widths, so no call crosses the
