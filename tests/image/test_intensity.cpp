@@ -877,6 +877,11 @@ struct BoxFit {
   TestVolume<float> v{41, 41, 41, 1.0, 1.0, 1.0};
   SmoothedRoi roi;
   IntensityModel model;
+  // The crop's and the model's memory, held as long as the model is read.
+  Carved mem{[this](Arena& a) {
+    roi.carve(a, 41 * 41 * 41, kCpu);
+    model.carve(a, 4096, kCpu);
+  }};
   template <class Outside>
   explicit BoxFit(Outside outside) {
     Rng rng(78);
@@ -887,10 +892,6 @@ struct BoxFit {
           v.at(i, j, k) = float((d2 <= 9.0 ? 100.0 : outside(i)) + 10.0 * rng.normal());
         }
     REQUIRE(v.finish(VoxelType::F32));
-    Carved mem([&](Arena& a) {
-      roi.carve(a, 41 * 41 * 41, kCpu);
-      model.carve(a, 4096, kCpu);
-    });
     REQUIRE(mem.ok);
     const int64_t lo[3] = {0, 0, 0}, hi[3] = {41, 41, 41};
     SmoothingSettings ss;
