@@ -826,53 +826,9 @@ TEST_CASE("intensity: search finds a noisy CT ball's boundary from inside (outwa
   }
 }
 
-TEST_CASE("intensity: a small object's class, too rare for a bin of the scene, still has the background as its rival") {
-  // A ball 6 mm across at 100 in a flat background at 0 (noise sd 10), 1 mm
-  // voxels: in the statistics box (20 mm around the centre) the ball is
-  // 0.2% of the voxels, below binning's minimum share, so the scene fit finds
-  // the background alone. That class does not explain the object's mean (it
-  // would not accept 100), so it competes: the Bayes cut and the
-  // partial-volume level see it. (It was counted as the object's own class,
-  // leaving no competitor.)
-  TestVolume<float> v(41, 41, 41, 1.0, 1.0, 1.0);
-  Rng rng(77);
-  const double c[3] = {20, 20, 20};
-  for (int64_t k = 0; k < 41; ++k)
-    for (int64_t j = 0; j < 41; ++j)
-      for (int64_t i = 0; i < 41; ++i) {
-        const double d2 = double((i - 20) * (i - 20) + (j - 20) * (j - 20) + (k - 20) * (k - 20));
-        v.at(i, j, k) = float((d2 <= 9.0 ? 100.0 : 0.0) + 10.0 * rng.normal());
-      }
-  REQUIRE(v.finish(VoxelType::F32));
-  SmoothedRoi roi;
-  IntensityModel model;
-  Carved mem([&](Arena& a) {
-    roi.carve(a, 41 * 41 * 41, kCpu);
-    model.carve(a, 4096, kCpu);
-  });
-  REQUIRE(mem.ok);
-  const int64_t lo[3] = {0, 0, 0}, hi[3] = {41, 41, 41};
-  SmoothingSettings ss;
-  ss.stats_lo = lo;
-  ss.stats_hi = hi;
-  REQUIRE(roi.compute(v.view, lo, hi, ss) == RoiStatus::ok);
-  REQUIRE(model.fit(roi, c, 2.5, IntensityModelSettings()) == ModelStatus::ok);
-  REQUIRE(model.components() == 1);
-  CHECK(model.component(0).mean == doctest::Approx(100).epsilon(0.1));
-  REQUIRE(model.competitors() == 1);
-  CHECK(std::fabs(model.competitor(0).mean) < 5);
-  double rival = -1;
-  CHECK(model.rival_mean(2.0, &rival));
-  CHECK(std::fabs(rival) < 5);
-  // The object's scene weight is binning's minimum share (5% of the scene's
-  // samples, rounded up), not the background's.
-  CHECK(model.object_scene_weight() < 0.051);
-  CHECK(model.g(100) > 0.9);
-  CHECK(model.g(50) < 0.2);  // past the densities' crossing the background wins
-}
-
 // A ball 6 mm across at 100 (noise sd 10, 1 mm voxels) in a box whose
-// other voxels are given by outside(i): the model fitted from a sphere in it.
+// other voxels are given by outside(i), noise drawn from seed: the model
+// fitted from a sphere 2.5 mm in radius at its centre.
 struct BoxFit {
   TestVolume<float> v{41, 41, 41, 1.0, 1.0, 1.0};
   SmoothedRoi roi;
@@ -883,8 +839,8 @@ struct BoxFit {
     model.carve(a, 4096, kCpu);
   }};
   template <class Outside>
-  explicit BoxFit(Outside outside) {
-    Rng rng(78);
+  explicit BoxFit(Outside outside, uint64_t seed = 78) {
+    Rng rng(seed);
     for (int64_t k = 0; k < 41; ++k)
       for (int64_t j = 0; j < 41; ++j)
         for (int64_t i = 0; i < 41; ++i) {
@@ -902,6 +858,30 @@ struct BoxFit {
     REQUIRE(model.fit(roi, c, 2.5, IntensityModelSettings()) == ModelStatus::ok);
   }
 };
+
+TEST_CASE("intensity: a small object's class, too rare for a bin of the scene, still has the background as its rival") {
+  // A ball 6 mm across at 100 in a flat background at 0 (noise sd 10), 1 mm
+  // voxels: in the statistics box (20 mm around the centre) the ball is
+  // 0.2% of the voxels, below binning's minimum share, so the scene fit finds
+  // the background alone. That class does not explain the object's mean (it
+  // would not accept 100), so it competes: the Bayes cut and the
+  // partial-volume level see it. (It was counted as the object's own class,
+  // leaving no competitor.)
+  BoxFit fit([](int64_t) { return 0.0; }, 77);
+  const IntensityModel& model = fit.model;
+  REQUIRE(model.components() == 1);
+  CHECK(model.component(0).mean == doctest::Approx(100).epsilon(0.1));
+  REQUIRE(model.competitors() == 1);
+  CHECK(std::fabs(model.competitor(0).mean) < 5);
+  double rival = -1;
+  CHECK(model.rival_mean(2.0, &rival));
+  CHECK(std::fabs(rival) < 5);
+  // The object's scene weight is binning's minimum share (5% of the scene's
+  // samples, rounded up), not the background's.
+  CHECK(model.object_scene_weight() < 0.051);
+  CHECK(model.g(100) > 0.9);
+  CHECK(model.g(50) < 0.2);  // past the densities' crossing the background wins
+}
 
 TEST_CASE("intensity: the boundary is in view where the object's grey level is rare in its box and no rival overlaps it") {
   // A small ball of its own contrast (a tube's or a horn's case): in view.
