@@ -104,18 +104,21 @@ void check_grown(const char* what, const Reach& g, double min_share = 0.9) {
 
 }  // namespace
 
-TEST_CASE("tube growth: a quarter torus 8 mm across and 150 mm long, from a sphere at one end (binary, 1 mm)") {
+TEST_CASE("tube growth: a quarter torus 8 mm across and 150 mm long, from a sphere at one end (binary, 1 and 0.5 mm)") {
   const double R = 150.0 / (kPi / 2), arc = kPi / 2;
   check_grown("tube 1 mm", grow(torus_arc(R, arc, 1.0), R, arc, 500));
+  check_grown("tube 0.5 mm", grow(torus_arc(R, arc, 0.5), R, arc, 800));
 }
 
-TEST_CASE("tube growth: a C-shaped horn that bends back, from a sphere at one end (binary, 0.5 mm)") {
+TEST_CASE("tube growth: a C-shaped horn that bends back, from a sphere at one end (binary, 0.5 and 1 mm)") {
   const double R = 25.0, arc = kPi;
   check_grown("horn 0.5 mm", grow(torus_arc(R, arc, 0.5), R, arc, 300));
+  check_grown("horn 1 mm", grow(torus_arc(R, arc, 1.0), R, arc, 300));
 }
 
-TEST_CASE("tube growth: the C-shaped horn in grey levels, noise a tenth of the contrast (defaults, 1 mm)") {
+TEST_CASE("tube growth: the C-shaped horn in grey levels, noise a tenth of the contrast (defaults, 1 and 0.5 mm)") {
   const double R = 25.0, arc = kPi;
+  check_grown("grey horn 0.5 mm", grow(torus_arc(R, arc, 0.5), R, arc, 300, true));
   const Phantom ph = torus_arc(R, arc, 1.0);
   const Reach free = grow(ph, R, arc, 300, true);
   check_grown("grey horn 1 mm", free);
