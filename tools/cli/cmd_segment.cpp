@@ -477,8 +477,10 @@ bool step_to_rest(const SegmentRequest& rq, EngineRun* run, int64_t limit, bool 
   return at_rest;
 }
 
-// The finest mesh resolution the objects' surfaces ask for (mesh_resolution.h).
-uint32_t wanted_resolution(const ffseg_engine* e, const ffseg_tools::NiftiImage& img, uint32_t nobj) {
+// The finest mesh resolution the objects' surfaces ask for (mesh_resolution.h);
+// grew_freely[k]: object k grew freely in the first run (its sides count too).
+uint32_t wanted_resolution(const ffseg_engine* e, const ffseg_tools::NiftiImage& img, uint32_t nobj,
+                           const std::vector<uint8_t>& grew_freely) {
   uint32_t wanted = kFirstResolution;
   const double h = std::min(img.spacing[0], std::min(img.spacing[1], img.spacing[2]));
   for (uint32_t k = 0; k < nobj; ++k) {
@@ -490,6 +492,9 @@ uint32_t wanted_resolution(const ffseg_engine* e, const ffseg_tools::NiftiImage&
     st = ffseg_extract_mesh(e, k, xyz.data(), nv, tris.data(), nt, &nv, &nt);
     if (st != FFSEG_OK) engine_fail(e, st, "ffseg_extract_mesh");
     wanted = std::max(wanted, resolution_for_area(mesh_area_mm2(xyz, tris), h));
+    if (k < grew_freely.size() && grew_freely[k])
+      wanted = std::max(wanted, resolution_for_sides(quad_side_quantile_mm(xyz, tris, kStretchQuantile),
+                                                     kFirstResolution, h));
   }
   return wanted;
 }
@@ -575,7 +580,7 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   const uint32_t fine = fixed_fine ? rq.mesh_resolution
                         : !automatic || (run->info.flags_all & ~uint32_t(FFSEG_OBJECT_STALLED)) != 0
                             ? 0
-                            : rerun_resolution(run->wanted_resolution = wanted_resolution(run->ws.e, img, nobj));
+                            : rerun_resolution(run->wanted_resolution = wanted_resolution(run->ws.e, img, nobj, run->grows_freely));
   if (fine == 0) {
     if (!at_rest) {
       const auto t_step0 = std::chrono::steady_clock::now();

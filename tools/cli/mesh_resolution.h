@@ -31,8 +31,25 @@ constexpr double kRerunFactor = 1.5;
 // steps once, and the 1 mm CT's liver, refined from where its n = 12 mesh
 // had got to then, ended short of the n = 12 run (BENCHMARKS section 12).
 
+// A mesh that grew freely along a tube or a horn (grey_respacing) has
+// re-spaced its loops along the growth, so its quads are stretched there: its
+// area understates the resolution the stretched part needs (the grey tube
+// phantom at 1 mm, n = 12 at 74% of its length: the area asks for 15, its
+// edges along the tube are 4-5 voxels). For such an object the resolution
+// also follows from its long edges: the kStretchQuantile quantile of its quad
+// sides, made kEdgeVoxels voxel spacings at the finer n. Chosen on Colin27's
+// left lateral ventricle (BENCHMARKS.md section 12).
+constexpr double kStretchQuantile = 0.75;
+
 // Area (mm^2) of a triangle mesh: xyz 3 floats per vertex, tris 3 indices each.
 double mesh_area_mm2(const std::vector<float>& xyz, const std::vector<uint32_t>& tris);
+// The q quantile (0..1) of the quad sides of a triangle mesh made of split
+// quads: each triangle's two shorter edges (the longest is the quad's
+// diagonal, or a side shared with a triangle that counts it). 0 for no triangle.
+double quad_side_quantile_mm(const std::vector<float>& xyz, const std::vector<uint32_t>& tris, double q);
+// The resolution at which sides of side_mm on a mesh of resolution n_now
+// become kEdgeVoxels * spacing_mm, within [kFirstResolution, kMaxAutoResolution].
+uint32_t resolution_for_sides(double side_mm, uint32_t n_now, double spacing_mm);
 // The resolution whose quads on a surface of area_mm2 are kEdgeVoxels *
 // spacing_mm a side, within [kFirstResolution, kMaxAutoResolution].
 uint32_t resolution_for_area(double area_mm2, double spacing_mm);

@@ -7,7 +7,8 @@ the dark voxels (below 50) deep in the brain (8 voxels inside ch2bet), on the
 sphere's side of the midline, connected to the sphere's centre. The right
 ventricle's mesh used to come to rest while still growing (Dice 0.697 from
 its frontal horn); a freely growing mesh now rests at a tenth of
-convergence_mm (deform/convergence.cpp)."""
+convergence_mm (deform/convergence.cpp), and the CLI refines it to the
+resolution its stretched quads ask for."""
 import json
 import os
 
@@ -78,7 +79,13 @@ def test_the_mesh_follows_the_lateral_ventricle_from_its_frontal_horn(tmp_path):
     r, o, seg = run(tmp_path, "auto")
     assert o["grows_freely"] is True and o["respaced_steps"] > 10
     assert "grew freely" in r.stderr
-    assert dice(seg) >= 0.8  # 0.833 measured (0.301 with free growth off)
+    assert dice(seg) >= 0.84  # 0.857 measured (0.301 with free growth off; 0.833 kept at n = 12)
+    # Its quads stretched along the ventricle ask for a finer mesh than its
+    # area does (tools/cli/mesh_resolution.h): the first run is refined.
+    report = json.loads((tmp_path / "auto" / "report.json").read_text())
+    cfg = report["config"]
+    assert cfg["first_mesh_resolution"] == 12 and cfg["refined_from_first_run"] is True
+    assert cfg["mesh_resolution"] > 18 and cfg["asked_mesh_resolution"] == cfg["mesh_resolution"]
     r2, o2, seg2 = run(tmp_path, "never", "--param", "grey_respacing=2")
     assert o2["grows_freely"] is False and o2["respaced_steps"] == 0
     assert dice(seg2) < 0.5
@@ -92,4 +99,4 @@ def test_the_right_ventricle_grows_until_it_no_longer_moves(tmp_path):
     r, o, seg = run(tmp_path, "right", centre=RIGHT)
     assert o["grows_freely"] is True
     dice = 2 * (seg & truth).sum() / (seg.sum() + truth.sum())
-    assert dice >= 0.8  # 0.853 measured (0.697 when it rested at convergence_mm)
+    assert dice >= 0.86  # 0.877 measured (0.697 when it rested at convergence_mm, 0.853 kept at n = 12)
