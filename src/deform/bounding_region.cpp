@@ -81,8 +81,16 @@ struct SpeedTable {
   double vmin, inv;
   SpeedTable(const RegionSpeed& sp, double lo, double hi) : vmin(lo) {
     const double step = hi > lo ? (hi - lo) / (kSpeedTable - 1) : 1.0;
-    for (int b = 0; b < kSpeedTable; ++b)
-      table[b] = float(sp.model->posterior_against(lo + b * step, sp.others, sp.other_count));
+    // A block of entries at a time: the posteriors' exps go through the
+    // vector kernel, whose values are std::exp's bit for bit.
+    constexpr int kBlock = 256;
+    static_assert(kSpeedTable % kBlock == 0, "whole blocks");
+    double v[kBlock], p[kBlock];
+    for (int first = 0; first < kSpeedTable; first += kBlock) {
+      for (int t = 0; t < kBlock; ++t) v[t] = lo + (first + t) * step;
+      sp.model->posterior_against_block(v, kBlock, sp.others, sp.other_count, p);
+      for (int t = 0; t < kBlock; ++t) table[first + t] = float(p[t]);
+    }
     inv = 1.0 / step;
   }
   float operator()(float v) const {

@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "box_lattice.h"
+#include "exp_block.h"
 #include "smoothing.h"
 
 #include "fp_contract_off.h"  // after every other include
@@ -457,6 +458,56 @@ double IntensityModel::posterior_against(double v, const IntensityModel* const* 
   const double outlier = a * kOutlierFraction * peak_;
   const double den = own + rival + outlier;
   return den > 0 ? own / den : 0.0;
+}
+
+namespace {
+
+constexpr uint32_t kPosteriorBlock = 256;
+
+// acc[t] += weighted_density(g, v[t]) for t < n, each term as weighted_density
+// evaluates it; e: scratch of n.
+void add_weighted_density(const CpuDispatch& cpu, const Gaussian1& g, const double* v, uint32_t n, double* e,
+                          double* acc) {
+  for (uint32_t t = 0; t < n; ++t) {
+    const double d = v[t] - g.mean;
+    e[t] = -0.5 * d * d / g.var;
+  }
+  exp_block(cpu, e, n);
+  const double c = g.weight / std::sqrt(g.var);
+  for (uint32_t t = 0; t < n; ++t) acc[t] += c * e[t];
+}
+
+}  // namespace
+
+void IntensityModel::posterior_against_block(const double* v, uint32_t n, const IntensityModel* const* others,
+                                             uint32_t count, double* out) const {
+  double own[kPosteriorBlock], rival[kPosteriorBlock], dens[kPosteriorBlock], e[kPosteriorBlock];
+  for (uint32_t first = 0; first < n; first += kPosteriorBlock) {
+    const uint32_t b = n - first < kPosteriorBlock ? n - first : kPosteriorBlock;
+    const double* x = v + first;
+    if (m_ == 0) {
+      for (uint32_t t = 0; t < b; ++t) out[first + t] = 0;
+      continue;
+    }
+    const double a = sm_ > 0 ? obj_weight_ : 1.0;
+    for (uint32_t t = 0; t < b; ++t) own[t] = rival[t] = 0;
+    for (uint32_t i = 0; i < m_; ++i) add_weighted_density(cpu_, comp_[i], x, b, e, own);
+    for (uint32_t t = 0; t < b; ++t) own[t] = a * own[t];
+    for (uint32_t c = 0; c < sm_; ++c) add_weighted_density(cpu_, scene_[c], x, b, e, rival);
+    for (uint32_t o = 0; o < count; ++o) {
+      const IntensityModel& other = *others[o];
+      if (&other == this || !other.valid()) continue;
+      for (uint32_t t = 0; t < b; ++t) dens[t] = 0;
+      for (uint32_t i = 0; i < other.m_; ++i) add_weighted_density(cpu_, other.comp_[i], x, b, e, dens);
+      const double w = other.sm_ > 0 ? other.obj_weight_ : 1.0;
+      for (uint32_t t = 0; t < b; ++t) rival[t] += w * dens[t];
+    }
+    const double outlier = a * kOutlierFraction * peak_;
+    for (uint32_t t = 0; t < b; ++t) {
+      const double den = own[t] + rival[t] + outlier;
+      out[first + t] = !(x[t] == x[t]) ? 0.0 : den > 0 ? own[t] / den : 0.0;
+    }
+  }
 }
 
 void IntensityModel::normalise_and_tabulate() {

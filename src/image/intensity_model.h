@@ -228,6 +228,11 @@ class IntensityModel {
   // own classes' scene fraction, so a value that another organ explains
   // better slows this object's front.
   double posterior_against(double v, const IntensityModel* const* others, uint32_t count) const;
+  // posterior_against() at v[t] into out[t], t < n, bit for bit: the same
+  // sums in the same order, their exps a block at a time (exp_block), for a
+  // front's speed table.
+  void posterior_against_block(const double* v, uint32_t n, const IntensityModel* const* others, uint32_t count,
+                               double* out) const;
   // Scene fraction times density of the object's own classes at v.
   double own_density(double v) const { return (sm_ > 0 ? obj_weight_ : 1.0) * density(v); }
   static constexpr double kOutlierFraction = 1e-3;
