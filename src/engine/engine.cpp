@@ -453,10 +453,16 @@ Err Engine::step(StepReport* r) {
       uint32_t others = 0;
       if (placed > 1)
         for (uint32_t j = 0; j < N; ++j)
-          if (j != i && objects_[j].placed) scratch_.obstacles[others++] = objects_[j].x;
+          if (j != i && objects_[j].placed) {
+            // Its guard's splits at the positions that guard accepted:
+            // build_obstacles() takes them where these are still its own.
+            const GuardCache& g = objects_[j].step.guard;
+            scratch_.obstacle_splits[others] = {g.valid ? g.alt : nullptr, g.key};
+            scratch_.obstacles[others++] = objects_[j].x;
+          }
       const Err e = deform_step(mesh_, p, &vol_, o.convergence.moving_threshold(rule(o)),
                                 o.convergence.respacing(rule(o)), o.x, o.step, scratch_,
-                                scratch_.obstacles, others, r->stage_us, msg_, kMsgLen);
+                                scratch_.obstacles, others, scratch_.obstacle_splits, r->stage_us, msg_, kMsgLen);
       if (e != Err::ok) return e;
     }
   }

@@ -98,6 +98,7 @@ struct StepScratch {
   // (the hard no-overlap guarantee), and their positions.
   ContactScratch contacts;
   const double** obstacles = nullptr;  // max_objects
+  ObstacleSplits* obstacle_splits = nullptr;  // max_objects: their guard caches' splits
   void carve(Arena& a, const CubeSphere& m);
   void carve_regions(Arena& a, const CubeSphere& m, int64_t max_voxels, uint32_t max_objects);
 };

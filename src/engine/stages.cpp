@@ -104,6 +104,7 @@ void StepScratch::carve_regions(Arena& a, const CubeSphere& m, int64_t max_voxel
   models = a.alloc<const IntensityModel*>(max_objects);
   contacts.carve(a, m, max_objects - 1);
   obstacles = a.alloc<const double*>(max_objects);
+  obstacle_splits = a.alloc<ObstacleSplits>(max_objects);
 }
 
 Err compute_object_region(const CubeSphere& m, const VolumeView& vol, const Params& p, Object& o,
@@ -287,6 +288,7 @@ void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, O
 
 Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, bool respace,
                 double* x, ObjectStep& st, StepScratch& s, const double* const* others, uint32_t other_count,
+                const ObstacleSplits* other_splits,
                 uint64_t stage_us[kStageCount], char* msg, size_t msg_len) {
   const uint32_t nv = m.nv;
   uint64_t t0 = now_us(), t1;
@@ -368,7 +370,7 @@ Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, do
   if (other_count > 0) {
     double region[6];
     guard_region(m, x, s.rhs, region);
-    build_obstacles(m, others, other_count, s.contacts, region);
+    build_obstacles(m, others, other_count, s.contacts, region, other_splits);
     obstacles = &s.contacts;
   }
   st.guard_kept = guard_step(m, x, s.rhs, s.tmp, s.weight, s.tmp_has, s.flipping, s.triangles, obstacles,

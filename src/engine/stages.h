@@ -68,11 +68,14 @@ void prevent_step_folds(const CubeSphere& m, const Params& p, const double* x, O
 // across the surface and at the fronts recorded too). Times the assembly, factor, solve and guard stages into
 // stage_us. others[0..other_count): the other objects' positions, which
 // the update may not touch (their meshes, as they are when this object
-// moves). grid (optional): the volume whose box the new positions are
-// clamped to before the guard (grid_box.h; a mesh inside it stays inside).
+// moves). other_splits (optional, one per other): their face splits where
+// held (build_obstacles()). grid (optional): the volume whose box the new
+// positions are clamped to before the guard (grid_box.h; a mesh inside it
+// stays inside).
 // On failure x is unchanged and msg says why.
 Err deform_step(const CubeSphere& m, const Params& p, const VolumeView* grid, double still_mm, bool respace,
                 double* x, ObjectStep& st, StepScratch& s, const double* const* others, uint32_t other_count,
+                const ObstacleSplits* other_splits,
                 uint64_t stage_us[kStageCount], char* msg, size_t msg_len);
 
 // The naive variant of thesis fig. 4.10 (a test reference, through

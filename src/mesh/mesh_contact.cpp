@@ -1,6 +1,7 @@
 #include "mesh_contact.h"
 
 #include <cmath>
+#include <cstring>
 
 #include "triangle_crossing.h"
 #include "triangulation.h"
@@ -138,13 +139,25 @@ inline void prepare_face(const CubeSphere& m, const double* x, ContactScratch& s
   }
 }
 
-// Obstacle k's face f split at its positions and its triangles boxed
-// (widened by eps); returns how many triangles.
+// Whether face f's corners are at the same positions in x and y, bit for bit.
+inline bool same_corners(const CubeSphere& m, uint32_t f, const double* x, const double* y) {
+  const uint32_t* q = m.faces + 4 * size_t(f);
+  const int k = q[3] == kNone ? 3 : 4;
+  for (int i = 0; i < k; ++i)
+    if (std::memcmp(x + 3 * size_t(q[i]), y + 3 * size_t(q[i]), 3 * sizeof(double)) != 0) return false;
+  return true;
+}
+
+// Obstacle k's face f split at its positions (as its caller's splits have
+// it where they hold its corners) and its triangles boxed (widened by eps);
+// returns how many triangles.
 inline int obstacle_face(const CubeSphere& m, ContactScratch& s, uint32_t k, uint32_t f, double eps) {
   const double* y = s.pos[k];
   const size_t t0 = size_t(k) * s.nt + m.first_triangle(f);
   uint32_t* tri = s.tris + 3 * t0;
-  const int c = face_triangles(m, f, tri, y);
+  const ObstacleSplits& sp = s.splits[k];
+  const int c = sp.alt && same_corners(m, f, sp.key, y) ? face_split(m, f, sp.alt[f] != 0, tri)
+                                                         : face_triangles(m, f, tri, y);
   for (int i = 0; i < c; ++i) {
     const uint32_t* id = tri + 3 * i;
     detail::triangle_box(y + 3 * size_t(id[0]), y + 3 * size_t(id[1]), y + 3 * size_t(id[2]), eps,
@@ -189,6 +202,7 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
   nt = m.triangle_count();
   const size_t total = size_t(nt) * max_obst;
   pos = a.alloc<const double*>(max_obst);
+  splits = a.alloc<ObstacleSplits>(max_obst);
   box = a.alloc<double>(size_t(6) * max_obst);
   state = a.alloc<uint8_t>(max_obst);
   fdone = a.alloc<uint8_t>(size_t(m.nfaces) * max_obst);
@@ -218,7 +232,7 @@ void ContactScratch::carve(Arena& a, const CubeSphere& m, uint32_t max_obst) {
 }
 
 void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s,
-                     const double* region) {
+                     const double* region, const ObstacleSplits* splits) {
   s.count = count < s.max_obstacles ? count : s.max_obstacles;
   s.tracked = false;
   s.swept = false;
@@ -237,6 +251,7 @@ void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t coun
   s.nentered = 0;
   for (uint32_t k = 0; k < s.count; ++k) {
     s.pos[k] = xs[k];
+    s.splits[k] = splits && splits[k].key ? splits[k] : ObstacleSplits{};
     double* b = s.box + 6 * size_t(k);
     vertex_box(xs[k], m.nv, 0.0, b, b + 3);
     s.state[k] = 0;

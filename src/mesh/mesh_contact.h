@@ -20,10 +20,19 @@
 
 namespace ffseg {
 
+// An obstacle's face splits as its caller holds them: alt[f] is face f's
+// split at positions key (3 per vertex) as face_triangles() gives it (1:
+// the 1-3 diagonal). alt nullptr: none held.
+struct ObstacleSplits {
+  const uint8_t* alt = nullptr;
+  const double* key = nullptr;
+};
+
 struct ContactScratch {
   uint32_t max_obstacles = 0, count = 0;
   uint32_t nt = 0;                    // triangles per mesh
   const double** pos = nullptr;       // per obstacle: its positions (the caller's, 3 per vertex)
+  ObstacleSplits* splits = nullptr;   // per obstacle: the caller's splits of it (alt nullptr: none)
   double* box = nullptr;              // per obstacle: lo[3], hi[3] of its vertices, widened by eps
   // Per obstacle: kActive (its box meets the region: its faces there are
   // set up and in the grid), kComplete (every face set up, for the ray test).
@@ -80,8 +89,15 @@ struct ContactScratch {
 // and the proposed positions together); a query outside it may miss
 // contacts. Obstacles whose box misses it cost one pass over their
 // vertices, and only their faces meeting it enter the grid.
+// splits (optional, one per obstacle; read until the last query, as xs): a
+// face of obstacle k whose corners are those of splits[k].key bit for bit
+// takes its split from splits[k].alt instead of deciding it again: the same
+// function of the same bits, so the same triangles. Each object's step guard
+// keeps its splits at the positions it accepted, and the object then
+// stands as an obstacle to every other one. Faces are compared, not whole
+// meshes: a query's region meets a few of an obstacle's faces.
 void build_obstacles(const CubeSphere& m, const double* const* xs, uint32_t count, ContactScratch& s,
-                     const double* region = nullptr);
+                     const double* region = nullptr, const ObstacleSplits* splits = nullptr);
 
 // Declares that until the next build_obstacles() every position set queried
 // has each vertex v on the segment from a to b (up to the rounding of a

@@ -282,3 +282,64 @@ TEST_CASE("mesh contact: tracked calls after local moves equal the check from sc
   CHECK(crossing_calls >= 20);
   CHECK(clean_calls >= 5);
 }
+
+TEST_CASE("mesh contact: an obstacle's splits from its caller are taken where their key holds its corners") {
+  ContactBox b(12, 1);
+  const uint32_t nv = b.m.nv, nt = b.m.triangle_count();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> jitter(-0.4, 0.4);
+  auto B = b.sphere(10, 15, 0.5, -0.3);
+  for (double& q : B) q += jitter(rng);  // non-planar quads, split either way
+  const auto A = b.sphere(10);
+  // The splits face_triangles() decides at B, and their opposites.
+  std::vector<uint8_t> alt(b.m.nfaces), flipped(b.m.nfaces);
+  uint32_t alts = 0;
+  for (uint32_t f = 0; f < b.m.nfaces; ++f) {
+    uint32_t got[6], zero[6];
+    const int c = ffseg::face_triangles(b.m, f, got, B.data());
+    ffseg::face_split(b.m, f, false, zero);
+    alt[f] = c == 2 && (got[0] != zero[0] || got[3] != zero[3]);
+    flipped[f] = c == 2 && !alt[f];
+    alts += alt[f];
+  }
+  CHECK(alts > 0);
+  const double* p[1] = {B.data()};
+  auto build = [&](const ffseg::ObstacleSplits* splits) {
+    ffseg::build_obstacles(b.m, p, 1, b.cs, nullptr, splits);
+    return std::vector<uint32_t>(b.cs.tris, b.cs.tris + 3 * size_t(nt));
+  };
+  // Face f's triangles in a build's list.
+  auto face = [&](const std::vector<uint32_t>& t, uint32_t f) {
+    const size_t t0 = b.m.first_triangle(f), c = b.m.faces[4 * size_t(f) + 3] == ffseg::kNone ? 1 : 2;
+    return std::vector<uint32_t>(t.begin() + 3 * t0, t.begin() + 3 * (t0 + c));
+  };
+  const auto plain = build(nullptr);
+  std::vector<uint8_t> mark_plain, mark;
+  const uint32_t count_plain = b.contacts(A, &mark_plain);
+  CHECK(count_plain > 0);
+  // Its own splits: the same triangles, the same contacts.
+  const ffseg::ObstacleSplits own{alt.data(), B.data()};
+  CHECK(build(&own) == plain);
+  CHECK(b.contacts(A, &mark) == count_plain);
+  CHECK(mark == mark_plain);
+  // Other splits under its key are taken as given...
+  const ffseg::ObstacleSplits other{flipped.data(), B.data()};
+  const auto given = build(&other);
+  CHECK(given != plain);
+  // ...except on the faces around a vertex the key does not hold.
+  auto moved = B;
+  const uint32_t v = nv / 2;
+  moved[3 * size_t(v)] += 1e-9;
+  const ffseg::ObstacleSplits stale{flipped.data(), moved.data()};
+  const auto partly = build(&stale);
+  uint32_t around = 0;
+  for (uint32_t f = 0; f < b.m.nfaces; ++f) {
+    const uint32_t* q = b.m.faces + 4 * size_t(f);
+    const bool at_v = q[0] == v || q[1] == v || q[2] == v || q[3] == v;
+    around += at_v;
+    CHECK(face(partly, f) == face(at_v ? plain : given, f));
+  }
+  CHECK(around > 0);
+  const ffseg::ObstacleSplits none{nullptr, B.data()};
+  CHECK(build(&none) == plain);
+}
