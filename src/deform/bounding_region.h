@@ -71,11 +71,14 @@ struct RegionMap {
   void carve(Arena& a, int64_t max_voxels);
   bool unit_cells() const { return f[0] == 1 && f[1] == 1 && f[2] == 1; }
   // Arrival time at voxel (i, j, k) of the volume grid (its cell's); +inf
-  // outside the box.
+  // outside the box. The ownership test asks it of every region at every
+  // voxel a search meets: one unsigned comparison per axis, an index below
+  // the box wrapping to beyond every extent.
   float time_at(int64_t i, int64_t j, int64_t k) const {
-    if (i < lo[0] || j < lo[1] || k < lo[2] || i >= lo[0] + n[0] || j >= lo[1] + n[1] || k >= lo[2] + n[2])
-      return kNotReached;
-    if (unit_cells()) return t[(i - lo[0]) + n[0] * ((j - lo[1]) + n[1] * (k - lo[2]))];
+    const uint64_t di = uint64_t(i) - uint64_t(lo[0]), dj = uint64_t(j) - uint64_t(lo[1]),
+                   dk = uint64_t(k) - uint64_t(lo[2]);
+    if (di >= uint64_t(n[0]) || dj >= uint64_t(n[1]) || dk >= uint64_t(n[2])) return kNotReached;
+    if (unit_cells()) return t[di + uint64_t(n[0]) * (dj + uint64_t(n[1]) * dk)];
     return t[(i / f[0] - clo[0]) + cn[0] * ((j / f[1] - clo[1]) + cn[1] * (k / f[2] - clo[2]))];
   }
   // Whether the mesh at x (3 per vertex, mm) still lies in the inner part of
