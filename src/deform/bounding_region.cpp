@@ -88,7 +88,7 @@ struct SpeedTable {
     double v[kBlock], p[kBlock];
     for (int first = 0; first < kSpeedTable; first += kBlock) {
       for (int t = 0; t < kBlock; ++t) v[t] = lo + (first + t) * step;
-      sp.model->posterior_against_block(v, kBlock, sp.others, sp.other_count, p);
+      sp.model->posterior_against(v, kBlock, sp.others, sp.other_count, p);
       for (int t = 0; t < kBlock; ++t) table[first + t] = float(p[t]);
     }
     inv = 1.0 / step;

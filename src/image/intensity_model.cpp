@@ -447,19 +447,6 @@ double IntensityModel::rival_share(double gamma) const {
   return own + rival > 0 ? rival / (own + rival) : 1.0;
 }
 
-double IntensityModel::posterior_against(double v, const IntensityModel* const* others, uint32_t count) const {
-  if (m_ == 0 || !(v == v)) return 0;
-  const double a = sm_ > 0 ? obj_weight_ : 1.0;  // without competitors the object is the whole scene
-  const double own = a * density(v);
-  double rival = 0;
-  for (uint32_t c = 0; c < sm_; ++c) rival += weighted_density(scene_[c], v);
-  for (uint32_t o = 0; o < count; ++o)
-    if (others[o] != this && others[o]->valid()) rival += others[o]->own_density(v);
-  const double outlier = a * kOutlierFraction * peak_;
-  const double den = own + rival + outlier;
-  return den > 0 ? own / den : 0.0;
-}
-
 namespace {
 
 constexpr uint32_t kPosteriorBlock = 256;
@@ -479,8 +466,8 @@ void add_weighted_density(const CpuDispatch& cpu, const Gaussian1& g, const doub
 
 }  // namespace
 
-void IntensityModel::posterior_against_block(const double* v, uint32_t n, const IntensityModel* const* others,
-                                             uint32_t count, double* out) const {
+void IntensityModel::posterior_against(const double* v, uint32_t n, const IntensityModel* const* others,
+                                       uint32_t count, double* out) const {
   double own[kPosteriorBlock], rival[kPosteriorBlock], dens[kPosteriorBlock], e[kPosteriorBlock];
   for (uint32_t first = 0; first < n; first += kPosteriorBlock) {
     const uint32_t b = n - first < kPosteriorBlock ? n - first : kPosteriorBlock;

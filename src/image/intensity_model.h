@@ -221,18 +221,15 @@ class IntensityModel {
   // f_c(v) + a_o u), the scene's competing classes as in g and u an outlier
   // class at kOutlierFraction of the object's peak density, so that a value
   // no class explains (far from every mean) reads near 0 instead of 0 / 0.
-  // Without competitors it is 1 wherever the object explains v well.
-  double posterior(double v) const { return posterior_against(v, nullptr, 0); }
-  // The same with other objects' models in the denominator as well (thesis
-  // eq. 6.2.3 with every organ's class in P(I)): each weighs in with its
-  // own classes' scene fraction, so a value that another organ explains
-  // better slows this object's front.
-  double posterior_against(double v, const IntensityModel* const* others, uint32_t count) const;
-  // posterior_against() at v[t] into out[t], t < n, bit for bit: the same
-  // sums in the same order, their exps a block at a time (exp_block), for a
-  // front's speed table.
-  void posterior_against_block(const double* v, uint32_t n, const IntensityModel* const* others, uint32_t count,
-                               double* out) const;
+  // Without competitors it is 1 wherever the object explains v well. Other
+  // objects' models (others[0..count)) are in the denominator as well
+  // (thesis eq. 6.2.3 with every organ's class in P(I)): each weighs in with
+  // its own classes' scene fraction, so a value that another organ explains
+  // better slows this object's front. At v[t] into out[t], t < n (0 where
+  // v[t] is NaN), for a front's speed table: each class's exps a block at a
+  // time (exp_block, std::exp's values bit for bit).
+  void posterior_against(const double* v, uint32_t n, const IntensityModel* const* others, uint32_t count,
+                         double* out) const;
   // Scene fraction times density of the object's own classes at v.
   double own_density(double v) const { return (sm_ > 0 ? obj_weight_ : 1.0) * density(v); }
   static constexpr double kOutlierFraction = 1e-3;
