@@ -206,8 +206,9 @@ typedef struct ffseg_params {
                                    targets: first the mean motion along the vertex normals and the mean
                                    advance toward their targets of the vertices whose target lies beyond
                                    a voxel; then, while polishing, the mean displacement with at most 1%
-                                   of the vertices moving more than 0.75x it; grey levels growing freely,
-                                   see grey_respacing: the first of these at a tenth of it); [0, 100];
+                                   of the vertices moving more than 0.75x it; grey levels growing freely
+                                   where their boundary is in view, see grey_respacing: the first of these
+                                   at a tenth of it); [0, 100];
                                    default 0.05 */
   uint32_t diffusion_iterations; /* rounds of displacement averaging (eq. 4.2.2); 0..100; 0 = automatic:
                                     20 (n / 33)^2 for mesh resolution n (1 at least); with binary targets,
@@ -263,10 +264,11 @@ typedef struct ffseg_params {
                                     values it accepts (a vessel, a duct, a ventricle of its own contrast;
                                     not a soft-tissue organ in CT, not a nucleus among grey and white
                                     matter). 1: always; 2: never (0.7.0's default). Without it a grey-level
-                                    mesh re-spaces only to leave a stall. A mesh growing so rests only
-                                    when its surface and fronts move less than a tenth of convergence_mm:
-                                    the diffusion averages the few vertices at a tube's tip with their
-                                    resting neighbours, so the tip advances slowly.
+                                    mesh re-spaces only to leave a stall. A mesh growing so where its
+                                    boundary is in view rests only when its surface and fronts move less
+                                    than a tenth of convergence_mm: the diffusion averages the few
+                                    vertices at a tube's tip with their resting neighbours, so the tip
+                                    advances slowly (elsewhere, at 1 its rest is convergence_mm's).
                                     0..2; default 0 */
 } ffseg_params;
 

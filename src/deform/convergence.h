@@ -18,6 +18,9 @@ struct ConvergenceRule {
   // Grey-level targets re-space their loops until the first rest
   // (Params::grey_respacing): their rest is then judged as binary targets'.
   bool grey_respacing = false;
+  // The object's boundary is in view of the box around its sphere
+  // (IntensityModel::boundary_in_view()): growing freely, it rests slowly.
+  bool boundary_in_view = false;
 };
 
 // How one step moved an object's mesh (stages.cpp's tally).

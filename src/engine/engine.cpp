@@ -546,7 +546,8 @@ ConvergenceRule Engine::rule(const Object& o) const {
   // Automatic: free growth where the object's boundary is in view of its
   // box (intensity_model.h), a tube or horn of its own contrast; elsewhere
   // free growth is a leak as often as an organ.
-  c.grey_respacing = params_.grey_respacing == 1 || (params_.grey_respacing == 0 && o.model.boundary_in_view());
+  c.boundary_in_view = o.model.boundary_in_view();
+  c.grey_respacing = params_.grey_respacing == 1 || (params_.grey_respacing == 0 && c.boundary_in_view);
   return c;
 }
 

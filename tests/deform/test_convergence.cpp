@@ -218,3 +218,25 @@ TEST_CASE("convergence, grey-level: a stall at the first rest re-spaces the loop
     CHECK_FALSE(c.respacing(r));
   }
 }
+
+TEST_CASE("convergence, grey-level growing freely: a tenth of the threshold where its boundary is in view, else the threshold") {
+  const uint32_t nv = 1000;
+  ConvergenceRule r = grey_rule(0);
+  r.grey_respacing = true;
+  // The surface and its fronts move 0.02 mm a step: at rest by the threshold
+  // (0.05), not by a tenth of it.
+  const StepMotion slow = motion(0.3, 900, 0.02, 0.02);
+  {
+    r.boundary_in_view = true;  // a tube of its own contrast: its tip advances slowly
+    Convergence c;
+    CHECK(c.respacing(r));
+    for (int k = 0; k < 5; ++k) CHECK_FALSE(c.record(r, slow, nv));
+    CHECK(c.record(r, motion(0.3, 900, 0.004, 0.004), nv));
+  }
+  {
+    r.boundary_in_view = false;  // re-spaced by request (a finer run refining a coarse one)
+    Convergence c;
+    CHECK(c.respacing(r));
+    CHECK(c.record(r, slow, nv));
+  }
+}

@@ -24,6 +24,7 @@
 #include "overlay.h"
 #include "segment_options.h"
 #include "mesh_resolution.h"
+#include "refinement_reach.h"
 #include "seed_check.h"
 #include "segment_outputs.h"
 #include "workspace_budget.h"
@@ -268,6 +269,15 @@ struct EngineRun {
   std::vector<uint64_t> coarse_voxels;  // each first-run mesh's voxels
   std::vector<uint8_t> coarse_stalled, stalled, from_coarse;
   bool start_from_coarse = false;  // the next engine starts from `coarse`
+  // The finer run re-spaces its loops (refinement_reach.h): while
+  // respacing, each object is held to reach_mm3 (its first-run mesh's
+  // refinement_reach_mm3); left_reach: the first object to enclose more
+  // (else -1), at step left_step, enclosing left_mm3. finer_respaced: the
+  // finer run that stands is the re-spaced one.
+  bool respacing = false, finer_respaced = false;
+  std::vector<double> reach_mm3;
+  int64_t left_reach = -1, left_step = 0;
+  double left_mm3 = 0;
   // The finer run was given up for the first run's resolution (run_engine_once).
   bool finer_given_up = false;
   // Where the last engine placed each object: kStartSphere or
@@ -358,7 +368,9 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
   st = ffseg_create(&cfg, ws.p, run->ws_bytes, &ws.e);
   if (st != FFSEG_OK) engine_fail(nullptr, st, "ffseg_create");
 
-  st = ffseg_set_params(ws.e, &rq.params);
+  ffseg_params params = rq.params;
+  if (run->respacing) params.grey_respacing = 1;
+  st = ffseg_set_params(ws.e, &params);
   if (st != FFSEG_OK) {
     const std::string detail = ffseg_last_error(ws.e);
     fail(st == FFSEG_ERR_INVALID_ARGUMENT ? kExitUsage : kExitEngine,
@@ -423,6 +435,34 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
   }
 }
 
+// Object k's mesh as the engine extracts it: xyz, and tris when given.
+std::vector<float> mesh_vertices(const ffseg_engine* e, uint32_t k, std::vector<uint32_t>* tris = nullptr) {
+  size_t nv = 0, nt = 0;
+  ffseg_status st = ffseg_extract_mesh(e, k, nullptr, 0, nullptr, 0, &nv, &nt);
+  if (st != FFSEG_OK) engine_fail(e, st, "ffseg_extract_mesh");
+  std::vector<float> xyz(3 * nv);
+  if (tris) tris->resize(3 * nt);
+  st = ffseg_extract_mesh(e, k, xyz.data(), nv, tris ? tris->data() : nullptr, tris ? nt : 0, &nv, &nt);
+  if (st != FFSEG_OK) engine_fail(e, st, "ffseg_extract_mesh");
+  return xyz;
+}
+
+// Whether some object of a re-spacing finer run now encloses more than its
+// first run's reach (refinement_reach.h); the first such is recorded.
+bool left_refinement_reach(EngineRun* run, uint32_t nobj) {
+  std::vector<uint32_t> tris;
+  for (uint32_t k = 0; k < nobj && k < run->reach_mm3.size(); ++k) {
+    const std::vector<float> xyz = mesh_vertices(run->ws.e, k, &tris);
+    const double v = enclosed_volume_mm3(xyz, tris);
+    if (!(v > run->reach_mm3[k])) continue;
+    run->left_reach = k;
+    run->left_step = run->steps;
+    run->left_mm3 = v;
+    return true;
+  }
+  return false;
+}
+
 // Steps every object until all are at rest or the run has taken `limit`
 // steps (at most --max-steps), with a progress line; resume: go on from the
 // steps already taken. Returns whether every object is at rest.
@@ -438,7 +478,9 @@ bool step_to_rest(const SegmentRequest& rq, EngineRun* run, int64_t limit, bool 
     run->border_vertices.assign(nobj, 0);
     run->far.assign(nobj, {0.0, 0.0, 0.0});
     run->respaced_steps.assign(nobj, 0);
-    run->grows_freely.assign(nobj, 0);
+    // A re-spacing finer run keeps the first run's: every object re-spaces
+    // there, grows_freely is the automatic rule's.
+    if (!run->respacing) run->grows_freely.assign(nobj, 0);
   }
   const auto t0 = std::chrono::steady_clock::now();
   Progress progress(!rq.quiet, rq.max_steps, nobj);
@@ -462,7 +504,8 @@ bool step_to_rest(const SegmentRequest& rq, EngineRun* run, int64_t limit, bool 
     for (int g = 0; g < FFSEG_STAGE_COUNT; ++g) run->stage_us[g] += info.stage_us[g];
     for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k) {
       run->respaced_steps[k] += info.respaced[k];
-      if (s == 0) run->grows_freely[k] = info.respaced[k] != 0 && rq.params.target_mode != FFSEG_TARGET_BINARY;
+      if (s == 0 && !run->respacing)
+        run->grows_freely[k] = info.respaced[k] != 0 && rq.params.target_mode != FFSEG_TARGET_BINARY;
     }
     for (uint32_t k = 0; k < nobj && k < FFSEG_REPORT_OBJECTS; ++k)
       if (info.vertices_with_target[k] > 0 || info.mean_displacement_mm[k] > 0) {
@@ -471,6 +514,10 @@ bool step_to_rest(const SegmentRequest& rq, EngineRun* run, int64_t limit, bool 
       }
     run->converged = st == FFSEG_CONVERGED;
     at_rest = run->converged || st == FFSEG_DEGENERATE;
+    if (run->respacing && left_refinement_reach(run, nobj)) {
+      progress.step(info, seconds_since(t0), true);
+      return false;
+    }
     progress.step(info, seconds_since(t0), at_rest || run->steps == rq.max_steps);
     if (at_rest) break;
   }
@@ -497,17 +544,6 @@ uint32_t wanted_resolution(const ffseg_engine* e, const ffseg_tools::NiftiImage&
                                                      kFirstResolution, h));
   }
   return wanted;
-}
-
-// Object k's mesh as the engine extracts it (xyz only).
-std::vector<float> mesh_vertices(const ffseg_engine* e, uint32_t k) {
-  size_t nv = 0, nt = 0;
-  ffseg_status st = ffseg_extract_mesh(e, k, nullptr, 0, nullptr, 0, &nv, &nt);
-  if (st != FFSEG_OK) engine_fail(e, st, "ffseg_extract_mesh");
-  std::vector<float> xyz(3 * nv);
-  st = ffseg_extract_mesh(e, k, xyz.data(), nv, nullptr, 0, &nv, &nt);
-  if (st != FFSEG_OK) engine_fail(e, st, "ffseg_extract_mesh");
-  return xyz;
 }
 
 // Each object's FFSEG_OBJECT_STALLED as of the run's last step.
@@ -595,7 +631,12 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
     return;
   }
   run->coarse.resize(nobj);
-  for (uint32_t k = 0; k < nobj; ++k) run->coarse[k] = mesh_vertices(run->ws.e, k);
+  run->reach_mm3.assign(nobj, 0.0);
+  for (uint32_t k = 0; k < nobj; ++k) {
+    std::vector<uint32_t> tris;
+    run->coarse[k] = mesh_vertices(run->ws.e, k, &tris);
+    run->reach_mm3[k] = refinement_reach_mm3(run->coarse[k], tris);
+  }
   run->coarse_stalled = stalled_objects(*run, nobj);
   run->coarse_voxels = object_voxels(run->ws.e, img, nobj);
   if (!rq.quiet && fixed_fine)
@@ -613,13 +654,38 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
                  kFirstResolution);
     run->resolution = kFirstResolution;
     run->finer_given_up = true;
+    run->finer_respaced = false;
     pass(rq.max_steps);
     run->stalled = stalled_objects(*run, nobj);
     run->from_coarse.assign(nobj, 1);
   };
   try {
+    // The finer run re-spaces within the first run's reach
+    // (refinement_reach.h), for grey levels whose re-spacing is automatic;
+    // an object that leaves it makes the finer run again without. One
+    // object only: the parameter is the engine's, so one leaker among
+    // several would make every object's finer run again (the 16 organs of
+    // the 3 mm CT together: the vena cava left its reach at step 6, and the
+    // run cost 1 s more for the same result; BENCHMARKS.md section 12). An
+    // object that grew freely (its boundary in view) re-spaces anyway.
+    run->respacing = nobj == 1 && !run->grows_freely[0] && rq.params.grey_respacing == 0 &&
+                     rq.params.target_mode != FFSEG_TARGET_BINARY;
+    run->finer_respaced = run->respacing;
+    run->left_reach = -1;
     pass(rq.max_steps);
+    run->respacing = false;
+    if (run->left_reach >= 0) {
+      run->finer_respaced = false;
+      if (!rq.quiet)
+        std::fprintf(stderr, "ffseg: object %lld (%s) re-spaced at mesh resolution %u grew past its first run's "
+                     "reach (%.1f ml > %.1f ml at step %lld); the finer run again without re-spacing\n",
+                     (long long)run->left_reach + 1, rq.names[size_t(run->left_reach)].c_str(), fine,
+                     run->left_mm3 / 1000.0, run->reach_mm3[size_t(run->left_reach)] / 1000.0,
+                     (long long)run->left_step);
+      pass(rq.max_steps);
+    }
   } catch (const NoFinerStart& no) {
+    run->respacing = false;
     // Its sphere lies where a neighbour's finer mesh now stands (its own
     // first-run surface moved off it); the first run's work still holds.
     give_up("object " + std::to_string(no.object + 1) + " (" + rq.names[no.object] + ") cannot be placed at mesh " +
@@ -866,6 +932,19 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
   cj.set("refined_from_first_run", run.start_from_coarse && !run.finer_given_up);
   // The finer run was made and given up for the first run's resolution.
   if (run.start_from_coarse) cj.set("finer_run_given_up", run.finer_given_up);
+  // The finer run that stands re-spaced its loops (refinement_reach.h); or
+  // the object whose re-spacing left its first run's reach, and the finer
+  // run was made again without.
+  if (run.start_from_coarse) cj.set("finer_run_respaced", run.finer_respaced);
+  if (run.start_from_coarse && run.left_reach >= 0) {
+    ffseg_tools::Json lr = ffseg_tools::Json::object();
+    lr.set("object", run.left_reach + 1);
+    lr.set("name", rq.names[size_t(run.left_reach)]);
+    lr.set("step", run.left_step);
+    lr.set("volume_ml", run.left_mm3 / 1000.0);
+    lr.set("reach_ml", run.reach_mm3[size_t(run.left_reach)] / 1000.0);
+    cj.set("finer_run_left_reach", lr);
+  }
   if (automatic) {
     // The first run's resolution and what its surfaces asked for (mesh_resolution.h).
     cj.set("first_mesh_resolution", kFirstResolution);

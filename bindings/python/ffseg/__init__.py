@@ -543,6 +543,26 @@ def _scaled_about_centroid(xyz, f):
     return (c + f * (v.astype(_np.float64) - c)).astype(_np.float32)
 
 
+def _refinement_reach_mm3(xyz, tris):
+    """The tool's refinement_reach_mm3() (tools/cli/refinement_reach.h): the
+    volume a first-run mesh encloses plus its area times its mean quad side,
+    the most a finer run from it may enclose and still refine it."""
+    return _enclosed_volume_mm3(xyz, tris) + _area_and_mean_side(xyz, tris)
+
+
+def _enclosed_volume_mm3(xyz, tris):
+    v = _np.asarray(xyz, _np.float64)[_np.asarray(tris, _np.int64)]
+    a, b, c = v[:, 0], v[:, 1], v[:, 2]
+    return float(_np.sum(_np.einsum("ij,ij->i", a, _np.cross(b, c)))) / 6.0
+
+
+def _area_and_mean_side(xyz, tris):
+    v = _np.asarray(xyz, _np.float64)[_np.asarray(tris, _np.int64)]
+    area = 0.5 * float(_np.sum(_np.linalg.norm(_np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)))
+    edges = _np.sort(_np.linalg.norm(v[:, [1, 2, 0]] - v, axis=2), axis=1)[:, :2]  # the quad sides
+    return area * float(edges.mean()) if len(edges) else 0.0
+
+
 def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_steps, sizes,
                   rescale_slope, rescale_intercept, return_meshes, params):
     """The runs `ffseg segment --mesh-resolution n` makes: at n = 12 and below
@@ -551,20 +571,32 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
     the larger organs placed first); an
     object that stalls at n where its first run did not is put back on its
     n = 12 surface, and where that is refused the first run goes on at 12
-    from its meshes instead. Each run in an engine of its own, sized by sizes(n) ->
+    from its meshes instead. One object's finer run re-spaces its loops while
+    it encloses no more than its first run's reach, and is made again without
+    when it leaves it (tools/cli/refinement_reach.h). Each run in an engine of its own, sized by sizes(n) ->
     (max_roi_voxels, max_region_voxels)."""
     k = len(spheres)
 
-    def engine(n):
+    def engine(n, respacing=False):
         roi, region = sizes(n)
         e = Engine(max_objects=k, mesh_resolution=n, max_roi_voxels=roi, max_region_voxels=region)
-        e.set_params(target_mode=target_mode, **params)
+        e.set_params(target_mode=target_mode, **dict(params, **({"grey_respacing": 1} if respacing else {})))
         e.set_volume(array, affine, rescale_slope, rescale_intercept)
         return e
 
-    def to_rest(e):
-        for _ in range(int(max_steps)):
-            if e.step():
+    grew_freely = []  # the first run's first step re-spaced each object: its boundary in view
+
+    def to_rest(e, reach=None):
+        """Steps e to rest; with reach, None as soon as some object encloses
+        more than its reach (e closed)."""
+        for s in range(int(max_steps)):
+            rested = e.step()
+            if s == 0 and not grew_freely:
+                grew_freely.extend(bool(r) for r in e.last_step_info.respaced[:k])
+            if reach is not None and any(_enclosed_volume_mm3(*e.extract_mesh(j)) > reach[j] for j in range(k)):
+                e.close()
+                return None
+            if rested:
                 break
         return e
 
@@ -582,10 +614,10 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
             e.init_sphere(j, centre, radius)
         return to_rest(e)
 
-    def placed(n, starts, order):
+    def placed(n, starts, order, respacing=False):
         """An engine at n with object j placed from the first of starts[j] it
         takes, else its sphere, in `order`; None when a sphere is refused."""
-        e = engine(n)
+        e = engine(n, respacing)
         for j in order:
             centre, radius = spheres[j]
             for v in starts[j]:
@@ -606,18 +638,29 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
         final = from_spheres(mesh_resolution)
     else:
         first = from_spheres(FIRST_RESOLUTION)
-        coarse = [first.extract_mesh(j)[0] for j in range(k)]
+        coarse_meshes = [first.extract_mesh(j) for j in range(k)]
+        coarse = [m[0] for m in coarse_meshes]
+        # As the tool: one object's finer run re-spaces within its first
+        # run's reach, and is made again without when it leaves it.
+        respacing = (k == 1 and not grew_freely[0] and int(params.get("grey_respacing", 0)) == 0
+                     and target_mode not in ("binary", TARGET_BINARY))
+        reach = [_refinement_reach_mm3(*m) for m in coarse_meshes]
         coarse_stalled, coarse_voxels = stalled(first), voxels(first)
         first.close()
         order = sorted(range(k), key=lambda j: -coarse_voxels[j])  # stable: ties in index order
         def scaled(v):  # each scale computed only when the one before was refused
             return (_scaled_about_centroid(v, f) for f in FIRST_RUN_SCALES)
-        e = placed(mesh_resolution, [scaled(coarse[j]) for j in range(k)], order)
+        e = placed(mesh_resolution, [scaled(coarse[j]) for j in range(k)], order, respacing)
+        rested = None
+        if e is not None and respacing:
+            rested = to_rest(e, reach)
+            if rested is None:  # it left its reach: the finer run again without re-spacing
+                e = placed(mesh_resolution, [scaled(coarse[j]) for j in range(k)], order)
         lost = None
         if e is None:  # some object: neither its first-run mesh nor its sphere beside the others' meshes
             lost = f"some object cannot be placed at mesh resolution {mesh_resolution} beside the others' meshes"
         else:
-            final = to_rest(e)
+            final = rested if rested is not None else to_rest(e)
             still = stalled(final)
             for j, (centre, radius) in enumerate(spheres):
                 if still[j] and not coarse_stalled[j]:
