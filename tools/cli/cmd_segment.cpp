@@ -598,6 +598,11 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->start_from_coarse = false;
   run->finer_given_up = false;
   run->from_coarse.assign(nobj, 0);
+  // (Also when run_engine starts again with more memory mid-pass.)
+  run->respacing = false;
+  run->finer_respaced = false;
+  run->left_reach = -1;
+  run->reach_mm3.clear();
   auto pass = [&](int64_t limit) {
     const auto t_setup0 = std::chrono::steady_clock::now();
     start_engine(rq, img, run);
