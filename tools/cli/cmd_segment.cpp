@@ -433,6 +433,16 @@ void start_engine(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, 
     }
     if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_init_sphere (object " + std::to_string(k + 1) + ")");
   }
+  // The reach bounds a refinement of the first run's surface: an object the
+  // engine refused there grows from its sphere, as without re-spacing (a
+  // 2 mm sphere of the 1 mm CT re-spaced from it stalled, could not be put
+  // back, and the first run's leak of 490 ml stood).
+  if (run->respacing && run->start[0] != kStartFirstRun) {
+    run->respacing = false;
+    run->finer_respaced = false;
+    st = ffseg_set_params(ws.e, &rq.params);
+    if (st != FFSEG_OK) engine_fail(ws.e, st, "ffseg_set_params");
+  }
 }
 
 // Object k's mesh as the engine extracts it: xyz, and tris when given.

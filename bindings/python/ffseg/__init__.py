@@ -632,6 +632,10 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
                 except Error:
                     e.close()
                     return None
+                if respacing:  # as the tool: the reach bounds a refinement, not a growth from the sphere
+                    e.set_params(**dict(params, grey_respacing=0))  # (the others keep their values)
+                    respacing = False
+                    from_sphere.append(j)
         return e
 
     if int(mesh_resolution) <= FIRST_RESOLUTION:
@@ -650,9 +654,10 @@ def _segment_once(array, affine, spheres, target_mode, mesh_resolution, max_step
         order = sorted(range(k), key=lambda j: -coarse_voxels[j])  # stable: ties in index order
         def scaled(v):  # each scale computed only when the one before was refused
             return (_scaled_about_centroid(v, f) for f in FIRST_RUN_SCALES)
+        from_sphere = []
         e = placed(mesh_resolution, [scaled(coarse[j]) for j in range(k)], order, respacing)
         rested = None
-        if e is not None and respacing:
+        if e is not None and respacing and not from_sphere:
             rested = to_rest(e, reach)
             if rested is None:  # it left its reach: the finer run again without re-spacing
                 e = placed(mesh_resolution, [scaled(coarse[j]) for j in range(k)], order)

@@ -188,6 +188,37 @@ def test_one_organs_finer_run_re_spaces_within_its_first_runs_reach_and_is_made_
     assert int(((masks[0] != 0) != (auto != 0)).sum()) == 0
 
 
+def test_a_finer_run_from_the_sphere_does_not_re_space_in_the_tool_and_python(grid_1mm, tmp_path):
+    """Label 11 on the 1 mm grid (kept aside: not in either set), a 2 mm
+    sphere: the first run leaks (457 ml of 5) and its mesh resampled to
+    n = 49 crosses itself, so the finer run starts from the sphere. The
+    reach bounds a refinement of the first run's surface, so that run does
+    not re-space (re-spaced, it stalled, could not be put back, and the
+    first run's 490 ml stood; Dice 0.009 against 0.317). segment() takes
+    the same runs, voxel for voxel."""
+    nib = pytest.importorskip("nibabel")
+    import numpy as np
+    import ffseg
+    lab = os.path.join(grid_1mm, "labels.nii.gz")
+    out = str(tmp_path / "l11")
+    r = run_cli("segment", os.path.join(grid_1mm, "ct.nii.gz"), "--sphere-from-label", f"{lab}:11",
+                "--truth", lab, "--out", out, "--quiet", check=False)
+    assert r.returncode == 0, r.stderr
+    rep = json.load(open(os.path.join(out, "report.json")))
+    o = rep["objects"][0]
+    print(f"label 11: Dice {o['metrics']['dice']:.3f}, {o['volume_ml']:.1f} ml, n = {rep['config']['mesh_resolution']}")
+    assert o["started_from"] == "sphere" and rep["config"]["mesh_resolution"] == 49
+    assert rep["config"]["finer_run_respaced"] is False and "finer_run_left_reach" not in rep["config"]
+    assert o["voxels"] < o["first_run_voxels"] // 10  # 10.5 ml against the first run's 457
+
+    img = nib.load(os.path.join(grid_1mm, "ct.nii.gz"))
+    raw, slope, inter = stored_values(img)
+    masks = ffseg.segment(raw, img.affine, [(o["sphere"]["center_mm"], o["sphere"]["radius_mm"])],
+                          mesh_resolution=49, rescale_slope=slope, rescale_intercept=inter)
+    cli = np.asarray(nib.load(os.path.join(out, "labels.nii.gz")).dataobj) != 0
+    assert int(((masks[0] != 0) != cli).sum()) == 0
+
+
 def together(tmp_path, name, ids):
     """ids on the 3 mm CT in one engine (CLI defaults): report.json and each
     object's Dice."""
