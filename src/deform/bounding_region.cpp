@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "min_max.h"
 #include "rasterize.h"
 #include "spatial_grid.h"  // floor_i64
 
@@ -203,8 +204,8 @@ RegionStatus compute_region(const CubeSphere& m, const double* x, const VolumeVi
     double p[3];
     vol.world_to_index(x + 3 * size_t(v), p);
     for (int a = 0; a < 3; ++a) {
-      mn[a] = std::fmin(mn[a], p[a]);
-      mx[a] = std::fmax(mx[a], p[a]);
+      mn[a] = fmin_inline(mn[a], p[a]);
+      mx[a] = fmax_inline(mx[a], p[a]);
     }
   }
   int64_t lo[3], n[3];

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "diffusion_x86.h"
+#include "min_max.h"
 
 namespace ffseg {
 
@@ -128,7 +129,7 @@ uint32_t harmonic_fill(const CubeSphere& m, double* d, uint8_t* has, uint32_t* q
                                     d[3 * size_t(nb[3]) + a]);
         const double step = kOmega * (mean - d[3 * size_t(v) + a]);
         d[3 * size_t(v) + a] += step;
-        change = std::fmax(change, std::fabs(step));
+        change = fmax_inline(change, std::fabs(step));
       }
     }
     if (change < tol_mm) break;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <utility>
 
+#include "min_max.h"
 #include "triangle_crossing.h"
 #include "triangulation.h"
 
@@ -505,7 +506,7 @@ uint32_t full_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
     const double* lo = s.lo + 3 * size_t(t);
     const double* hi = s.hi + 3 * size_t(t);
     emean += (hi[0] - lo[0]) + (hi[1] - lo[1]) + (hi[2] - lo[2]);
-    rmax = std::fmax(rmax, s.radius[t]);
+    rmax = fmax_inline(rmax, s.radius[t]);
   }
   if (!(rmax > 0) || !std::isfinite(rmax)) return 0;
   emean /= 3.0 * nt;
@@ -603,7 +604,7 @@ uint32_t mark_intersections_tracked(const CubeSphere& m, const double* x, Triang
     }
   }
   double rmax = 0;
-  for (uint32_t t = 0; t < nt; ++t) rmax = std::fmax(rmax, s.radius[t]);
+  for (uint32_t t = 0; t < nt; ++t) rmax = fmax_inline(rmax, s.radius[t]);
   if (!(rmax > 0) || !std::isfinite(rmax)) {
     s.tracked = false;
     return 0;

@@ -3,9 +3,11 @@
 // a running XOR along each row turns toggles into inside/outside. The caller's
 // mask is its own scratch, so no memory is needed.
 #include "rasterize.h"
-#include "triangulation.h"
 
 #include <cmath>
+
+#include "min_max.h"
+#include "triangulation.h"
 
 namespace ffseg {
 
@@ -57,8 +59,8 @@ void scan_crossings(const CubeSphere& m, const double* x, const VolumeView& vol,
       for (int c = 0; c < 3; ++c) vol.world_to_index(x + 3 * size_t(id[c]), p[c]);
       double mnj = p[0][1], mxj = p[0][1], mnk = p[0][2], mxk = p[0][2];
       for (int c = 1; c < 3; ++c) {
-        mnj = std::fmin(mnj, p[c][1]); mxj = std::fmax(mxj, p[c][1]);
-        mnk = std::fmin(mnk, p[c][2]); mxk = std::fmax(mxk, p[c][2]);
+        mnj = fmin_inline(mnj, p[c][1]); mxj = fmax_inline(mxj, p[c][1]);
+        mnk = fmin_inline(mnk, p[c][2]); mxk = fmax_inline(mxk, p[c][2]);
       }
       int64_t j0, j1, k0, k1;
       centre_range(mnj - double(lo[1]), mxj - double(lo[1]), kDj, n[1], &j0, &j1);
@@ -162,8 +164,8 @@ bool mesh_fills_grid(const CubeSphere& m, const double* x, const VolumeView& vol
     double p[3];
     vol.world_to_index(x + 3 * size_t(v), p);
     for (int a = 0; a < 3; ++a) {
-      lo[a] = std::fmin(lo[a], p[a]);
-      hi[a] = std::fmax(hi[a], p[a]);
+      lo[a] = fmin_inline(lo[a], p[a]);
+      hi[a] = fmax_inline(hi[a], p[a]);
     }
   }
   double box = 1;
