@@ -173,12 +173,6 @@ VolumeView VolumeView::cell_geometry(const int64_t f[3]) const {
   return c;
 }
 
-void VolumeView::world_to_index(const double w[3], double ijk[3]) const { affine_point(Ainv_, w, ijk); }
-
-void VolumeView::index_to_world(const double ijk[3], double w[3]) const { affine_point(A_, ijk, w); }
-
-void VolumeView::world_dir_to_index(const double w[3], double ijk[3]) const { affine_direction(Ainv_, w, ijk); }
-
 double VolumeView::min_spacing() const {
   double m = spacing_[0];
   if (spacing_[1] < m) m = spacing_[1];

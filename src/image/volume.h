@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <cstring>
 
+#include "affine.h"
+
 namespace ffseg {
 
 enum class VoxelType : uint32_t { U8 = 1, I16 = 2, U16 = 3, I32 = 4, F32 = 5, F64 = 6 };
@@ -61,10 +63,12 @@ class VolumeView {
     }
   }
 
-  void world_to_index(const double w[3], double ijk[3]) const;
-  void index_to_world(const double ijk[3], double w[3]) const;
+  // Inline: the deformation maps every vertex, target or sample through
+  // them, and a call each was as much work as the map.
+  void world_to_index(const double w[3], double ijk[3]) const { affine_point(Ainv_, w, ijk); }
+  void index_to_world(const double ijk[3], double w[3]) const { affine_point(A_, ijk, w); }
   // Direction in index space for a world-space direction (no translation).
-  void world_dir_to_index(const double w[3], double ijk[3]) const;
+  void world_dir_to_index(const double w[3], double ijk[3]) const { affine_direction(Ainv_, w, ijk); }
 
   double sample_nearest(const double w[3], double outside = 0.0) const;
   double sample_linear(const double w[3], double outside = 0.0) const;
