@@ -87,23 +87,23 @@ __attribute__((flatten)) uint32_t search_intensity(const SmoothedRoi& roi, const
       uint32_t run = 0;
       bool at_border = false;
       for (int64_t i = 1; i <= M + int64_t(N); ++i) {
-        if (region) {
-          const double t = double(i) * step;
-          const double p[3] = {p0[0] + t * d[0], p0[1] + t * d[1], p0[2] + t * d[2]};
-          if (region->foreign(p)) {
-            // Another object's region (thesis 6.3) reached. Past a boundary
-            // already (background samples since j): that boundary, as if
-            // confirmed. Else the last sample before it, a border vertex.
-            if (run == 0) at_border = true;
-            ok = true;
-            ta = double(j) * step;
-            tb = double(j + 1) * step;
-            // (binary_search.cpp: no clearance; the step guard keeps the objects apart.)
-            if (at_border) ta = tb = double(i - 1) * step;
-            break;
-          }
+        // object_at(t)'s point (sgn is 1 here, and 1 t is t), computed once
+        // for both tests.
+        const double t = double(i) * step;
+        const double p[3] = {p0[0] + t * d[0], p0[1] + t * d[1], p0[2] + t * d[2]};
+        if (region && region->foreign(p)) {
+          // Another object's region (thesis 6.3) reached. Past a boundary
+          // already (background samples since j): that boundary, as if
+          // confirmed. Else the last sample before it, a border vertex.
+          if (run == 0) at_border = true;
+          ok = true;
+          ta = double(j) * step;
+          tb = double(j + 1) * step;
+          // (binary_search.cpp: no clearance; the step guard keeps the objects apart.)
+          if (at_border) ta = tb = double(i - 1) * step;
+          break;
         }
-        if (object_at(double(i) * step)) {
+        if (intensity_object(roi, model, gamma, p)) {
           j = i;
           run = 0;
           if (j > M) break;
