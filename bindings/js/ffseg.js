@@ -434,7 +434,11 @@
      * other is tried scaled about its centroid, else from its sphere; an
      * object that stalls at n where its
      * first run did not is put back on its n = 12 surface, and where that is
-     * refused the first run goes on at 12 from its meshes instead.
+     * refused the first run goes on at 12 from its meshes instead. One
+     * grey-level object placed from its first-run mesh (not grown freely in
+     * its first run) re-spaces its loops in the finer run while it encloses
+     * no more than its first run's reach, and the finer run is made again
+     * without when it leaves it (tools/cli/refinement_reach.h).
      *   volume:  { voxels, dims, affine, sclSlope, sclInter } (nifti.read's)
      *   spheres: [{ centre: [x, y, z] mm, radius mm }]
      *   options: meshResolution (33), maxSteps per run (200), targetMode
@@ -485,11 +489,45 @@
       };
       const voxelsOf = (e) => spheres.map((_, j) => { let c = 0; const m = e.rasterize(j); for (let i = 0; i < m.length; ++i) c += m[i]; return c; });
       const stalledOf = (r) => spheres.map((_, j) => ((r && r.objectFlags[j]) & STALLED) !== 0);
+      // The tool's enclosed_volume_mm3 and refinement_reach_mm3, summed in
+      // the same order in doubles: the same decisions.
+      const enclosedVolume = ({ vertices: x, triangles: t }) => {
+        let six = 0;
+        for (let i = 0; i + 2 < t.length; i += 3) {
+          const a = 3 * t[i], b = 3 * t[i + 1], c = 3 * t[i + 2];
+          six += x[a] * (x[b + 1] * x[c + 2] - x[b + 2] * x[c + 1]) +
+                 x[a + 1] * (x[b + 2] * x[c] - x[b] * x[c + 2]) +
+                 x[a + 2] * (x[b] * x[c + 1] - x[b + 1] * x[c]);
+        }
+        return six / 6;
+      };
+      const reachOf = (m) => {
+        const x = m.vertices, t = m.triangles;
+        let area = 0, sides = 0, ns = 0;
+        for (let i = 0; i + 2 < t.length; i += 3) {
+          const a = 3 * t[i], b = 3 * t[i + 1], c = 3 * t[i + 2];
+          const u = [x[b] - x[a], x[b + 1] - x[a + 1], x[b + 2] - x[a + 2]];
+          const v = [x[c] - x[a], x[c + 1] - x[a + 1], x[c + 2] - x[a + 2]];
+          const w = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+          area += 0.5 * Math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+          const len = [0, 1, 2].map((e) => {
+            const p = 3 * t[i + e], q = 3 * t[i + (e + 1) % 3];
+            const d = [x[q] - x[p], x[q + 1] - x[p + 1], x[q + 2] - x[p + 2]];
+            return Math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+          }).sort((p, q) => p - q);
+          sides += len[0] + len[1];
+          ns += 2;
+        }
+        return enclosedVolume(m) + area * (ns ? sides / ns : 0);
+      };
       // starts[j]: the meshes object j tries in turn before its sphere; order:
       // the objects in the order they are placed (the tool's start_engine).
-      async function run(n, starts, order) {
+      // reach: the finer run re-spaces, each object held to reach[j]
+      // (r.leftReach: the first to enclose more, and the step), unless
+      // object 0 is placed from its sphere.
+      async function run(n, starts, order, reach = null) {
         const e = engineAt(n, k > 1);
-        e.setParams({ targetMode });
+        e.setParams({ targetMode, greyRespacing: reach ? 1 : 0 });
         e.setVolume(volume.voxels, volume.dims, volume.affine, { rescaleSlope: volume.sclSlope ?? 1, rescaleIntercept: volume.sclInter ?? 0 });
         for (const j of order || spheres.map((_, i) => i)) {
           const s = spheres[j];
@@ -498,6 +536,7 @@
             try { e.initMesh(j, s.centre, s.radius, v); placed = true; break; } catch (ex) { if (!(ex instanceof FfsegError)) throw ex; }
           }
           if (placed) continue;
+          if (reach) { e.setParams({ greyRespacing: 0 }); reach = null; }  // as the tool: a growth from the sphere is no refinement
           try {
             e.initSphere(j, s.centre, s.radius);
           } catch (ex) {
@@ -506,17 +545,23 @@
             throw new FfsegError(ex.status, `${where}: ${ex.engineMessage}`, ex.call);
           }
         }
-        const r = { meshResolution: n, from: starts ? "first run" : "spheres", steps: 0, status: "ok", engine: e, last: null, stepMs: [] };
+        const r = { meshResolution: n, from: starts ? "first run" : "spheres", steps: 0, status: "ok", engine: e, last: null,
+          stepMs: [], respaced: !!reach, leftReach: null, grewFreely: null };
         while (r.steps < maxSteps) {
           if (shouldStop && shouldStop()) { out.stopped = true; break; }
           const t0 = performance.now();
           r.last = e.step();
           r.stepMs.push(performance.now() - t0);
           ++r.steps;
+          if (r.steps === 1) r.grewFreely = spheres.map((_, j) => targetMode !== "binary" && r.last.respaced[j] !== 0);
           if (onStep) await onStep(r.last, { run: out.runs.length, meshResolution: n, engine: e });
+          if (reach) {
+            const j = spheres.findIndex((_, i) => enclosedVolume(e.extractMesh(i)) > reach[i]);
+            if (j >= 0) { r.leftReach = { object: j, step: r.steps }; break; }
+          }
           if (r.last.atRest) break;
         }
-        r.status = r.last ? r.last.status : "none";
+        r.status = r.leftReach ? "left reach" : r.last ? r.last.status : "none";
         out.runs.push(r);
         return r;
       }
@@ -529,8 +574,13 @@
         if (!out.stopped) {
           const order = spheres.map((_, j) => j).sort((a, b) => coarseVoxels[b] - coarseVoxels[a] || a - b);
           let lost = false;
+          // As the tool: one grey-level object that did not grow freely
+          // re-spaces its finer run within its first run's reach.
+          const respacing = k === 1 && targetMode !== "binary" && !(first.grewFreely && first.grewFreely[0]);
+          const reach = respacing ? spheres.map((_, j) => reachOf(first.engine.extractMesh(j))) : null;
           try {
-            final = await run(meshResolution, coarse.map(scaledStarts), order);
+            final = await run(meshResolution, coarse.map(scaledStarts), order, reach);
+            if (final.leftReach && !out.stopped) final = await run(meshResolution, coarse.map(scaledStarts), order);
           } catch (ex) {  // an object placed neither from its first-run mesh nor from its sphere
             if (!(ex instanceof FfsegError)) throw ex;
             lost = true;
@@ -556,7 +606,8 @@
       out.steps = final.steps;
       out.stepMs = final.stepMs;
       out.last = final.last;
-      out.runs = out.runs.map(({ meshResolution: n, from, steps, status, stepMs }) => ({ meshResolution: n, from, steps, status, stepMs }));
+      out.runs = out.runs.map(({ meshResolution: n, from, steps, status, stepMs, respaced, leftReach }) =>
+        ({ meshResolution: n, from, steps, status, stepMs, respaced, leftReach }));
       return out;
     }
 
