@@ -28,7 +28,7 @@ uint32_t resolution_for_area(double area_mm2, double spacing_mm) {
   return n > double(kFirstResolution) ? uint32_t(n) : kFirstResolution;
 }
 
-double quad_side_quantile_mm(const std::vector<float>& xyz, const std::vector<uint32_t>& tris, double q) {
+std::vector<double> quad_sides_mm(const std::vector<float>& xyz, const std::vector<uint32_t>& tris) {
   std::vector<double> sides;
   sides.reserve(tris.size() / 3 * 2);
   for (size_t t = 0; t + 2 < tris.size(); t += 3) {
@@ -43,6 +43,11 @@ double quad_side_quantile_mm(const std::vector<float>& xyz, const std::vector<ui
     sides.push_back(len[0]);
     sides.push_back(len[1]);
   }
+  return sides;
+}
+
+double quad_side_quantile_mm(const std::vector<float>& xyz, const std::vector<uint32_t>& tris, double q) {
+  std::vector<double> sides = quad_sides_mm(xyz, tris);
   if (sides.empty()) return 0;
   const double qc = q < 0 ? 0 : (q > 1 ? 1 : q);
   const size_t k = size_t(qc * double(sides.size() - 1));

@@ -43,6 +43,9 @@ constexpr double kStretchQuantile = 0.75;
 
 // Area (mm^2) of a triangle mesh: xyz 3 floats per vertex, tris 3 indices each.
 double mesh_area_mm2(const std::vector<float>& xyz, const std::vector<uint32_t>& tris);
+// The quad sides of a triangle mesh made of split quads, two per triangle
+// in triangle order: each triangle's two shorter edges, the shorter first.
+std::vector<double> quad_sides_mm(const std::vector<float>& xyz, const std::vector<uint32_t>& tris);
 // The q quantile (0..1) of the quad sides of a triangle mesh made of split
 // quads: each triangle's two shorter edges (the longest is the quad's
 // diagonal, or a side shared with a triangle that counts it). 0 for no triangle.

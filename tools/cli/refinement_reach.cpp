@@ -1,6 +1,5 @@
 #include "refinement_reach.h"
 
-#include <algorithm>
 #include <cmath>
 #include <cstddef>
 
@@ -22,21 +21,10 @@ double enclosed_volume_mm3(const std::vector<float>& xyz, const std::vector<uint
 }
 
 double mean_quad_side_mm(const std::vector<float>& xyz, const std::vector<uint32_t>& tris) {
+  const std::vector<double> sides = quad_sides_mm(xyz, tris);
   double sum = 0;
-  size_t n = 0;
-  for (size_t t = 0; t + 2 < tris.size(); t += 3) {
-    double len[3];
-    for (int e = 0; e < 3; ++e) {
-      const float* a = &xyz[3 * size_t(tris[t + e])];
-      const float* b = &xyz[3 * size_t(tris[t + (e + 1) % 3])];
-      const double d[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
-      len[e] = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    }
-    std::sort(len, len + 3);
-    sum += len[0] + len[1];
-    n += 2;
-  }
-  return n ? sum / double(n) : 0.0;
+  for (size_t i = 0; i + 1 < sides.size(); i += 2) sum += sides[i] + sides[i + 1];  // a triangle's pair at once
+  return sides.empty() ? 0.0 : sum / double(sides.size());
 }
 
 double refinement_reach_mm3(const std::vector<float>& xyz, const std::vector<uint32_t>& tris) {
