@@ -547,7 +547,7 @@ def _refinement_reach_mm3(xyz, tris):
     """The tool's refinement_reach_mm3() (tools/cli/refinement_reach.h): the
     volume a first-run mesh encloses plus its area times its mean quad side,
     the most a finer run from it may enclose and still refine it."""
-    return _enclosed_volume_mm3(xyz, tris) + _area_and_mean_side(xyz, tris)
+    return _enclosed_volume_mm3(xyz, tris) + _area_times_mean_side(xyz, tris)
 
 
 def _enclosed_volume_mm3(xyz, tris):
@@ -556,7 +556,7 @@ def _enclosed_volume_mm3(xyz, tris):
     return float(_np.sum(_np.einsum("ij,ij->i", a, _np.cross(b, c)))) / 6.0
 
 
-def _area_and_mean_side(xyz, tris):
+def _area_times_mean_side(xyz, tris):
     v = _np.asarray(xyz, _np.float64)[_np.asarray(tris, _np.int64)]
     area = 0.5 * float(_np.sum(_np.linalg.norm(_np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)))
     edges = _np.sort(_np.linalg.norm(v[:, [1, 2, 0]] - v, axis=2), axis=1)[:, :2]  # the quad sides
