@@ -280,6 +280,9 @@ struct EngineRun {
   double left_mm3 = 0;
   // The finer run was given up for the first run's resolution (run_engine_once).
   bool finer_given_up = false;
+  // The re-spaced pass at the first run's own resolution (run_engine_once)
+  // left its reach, and the first run was made again to stand.
+  bool first_run_stands = false;
   // Where the last engine placed each object: kStartSphere or
   // kStartFirstRun (its first-run mesh, scaled by first_run_scale).
   std::vector<uint8_t> start;
@@ -607,6 +610,7 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->coarse_voxels.clear();
   run->start_from_coarse = false;
   run->finer_given_up = false;
+  run->first_run_stands = false;
   run->from_coarse.assign(nobj, 0);
   // (Also when run_engine starts again with more memory mid-pass.)
   run->respacing = false;
@@ -628,10 +632,26 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   const bool at_rest = pass(rq.max_steps);
   // A finer mesh would not make a segmentation of a result that is none.
   // (A stalled first run is still refined: the finer mesh may get past.)
-  const uint32_t fine = fixed_fine ? rq.mesh_resolution
-                        : !automatic || (run->info.flags_all & ~uint32_t(FFSEG_OBJECT_STALLED)) != 0
-                            ? 0
-                            : rerun_resolution(run->wanted_resolution = wanted_resolution(run->ws.e, img, nobj, run->grows_freely));
+  const bool found = (run->info.flags_all & ~uint32_t(FFSEG_OBJECT_STALLED)) == 0;
+  const uint32_t finer = fixed_fine ? rq.mesh_resolution
+                         : !automatic || !found
+                             ? 0
+                             : rerun_resolution(run->wanted_resolution = wanted_resolution(run->ws.e, img, nobj, run->grows_freely));
+  // One grey-level object re-spaces its loops from its first-run surface
+  // within that surface's reach (refinement_reach.h): in a finer run, or,
+  // where the automatic resolution keeps the first one, in a second pass at
+  // it (a first run stopped by --max-steps is not refined at its own n).
+  // The re-spacing, not the resolution, is what carries a rested mesh
+  // into the corners and lobes it jammed short of (the 3 mm CT's left
+  // kidney 0.813 -> 0.873, stomach 0.682 -> 0.765; BENCHMARKS.md section 12).
+  // One object only: the parameter is the engine's, so one leaker among
+  // several would make every object's finer run again (the 16 organs of the
+  // 3 mm CT together: the vena cava left its reach at step 6, and the run
+  // cost 1 s more for the same result). An object that grew freely (its
+  // boundary in view) re-spaces anyway.
+  const bool respaceable = nobj == 1 && !run->grows_freely[0] && rq.params.grey_respacing == 0 &&
+                           rq.params.target_mode != FFSEG_TARGET_BINARY;
+  const uint32_t fine = finer == 0 && automatic && found && at_rest && respaceable ? kFirstResolution : finer;
   if (fine == 0) {
     if (!at_rest) {
       const auto t_step0 = std::chrono::steady_clock::now();
@@ -656,6 +676,8 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->coarse_voxels = object_voxels(run->ws.e, img, nobj);
   if (!rq.quiet && fixed_fine)
     std::fprintf(stderr, "ffseg: first run at mesh resolution %u; now at %u from its meshes\n", kFirstResolution, fine);
+  else if (!rq.quiet && fine == kFirstResolution)
+    std::fprintf(stderr, "ffseg: the surface re-spaces its loops from its first-run mesh, within its reach\n");
   else if (!rq.quiet)
     std::fprintf(stderr, "ffseg: the surfaces ask for mesh resolution %u; refining the first run's meshes to it "
                  "(--mesh-resolution N to fix one)\n", fine);
@@ -675,16 +697,13 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
     run->from_coarse.assign(nobj, 1);
   };
   try {
-    // The finer run re-spaces within the first run's reach
-    // (refinement_reach.h), for grey levels whose re-spacing is automatic;
-    // an object that leaves it makes the finer run again without. One
-    // object only: the parameter is the engine's, so one leaker among
-    // several would make every object's finer run again (the 16 organs of
-    // the 3 mm CT together: the vena cava left its reach at step 6, and the
-    // run cost 1 s more for the same result; BENCHMARKS.md section 12). An
-    // object that grew freely (its boundary in view) re-spaces anyway.
-    run->respacing = nobj == 1 && !run->grows_freely[0] && rq.params.grey_respacing == 0 &&
-                     rq.params.target_mode != FFSEG_TARGET_BINARY;
+    // An object that leaves its reach gets the run it would have had
+    // without re-spacing: the finer run made again without, or at the first
+    // run's resolution the first run itself, made again from the sphere
+    // (the same steps bit for bit). Stepping on from its surface at rest
+    // instead is no such run: the rest rules start afresh and a leaker
+    // creeps on (the 3 mm gallbladder 161 -> 180 ml).
+    run->respacing = respaceable;
     run->finer_respaced = run->respacing;
     run->left_reach = -1;
     pass(rq.max_steps);
@@ -693,10 +712,15 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
       run->finer_respaced = false;
       if (!rq.quiet)
         std::fprintf(stderr, "ffseg: object %lld (%s) re-spaced at mesh resolution %u grew past its first run's "
-                     "reach (%.1f ml > %.1f ml at step %lld); the finer run again without re-spacing\n",
+                     "reach (%.1f ml > %.1f ml at step %lld); %s\n",
                      (long long)run->left_reach + 1, rq.names[size_t(run->left_reach)].c_str(), fine,
                      run->left_mm3 / 1000.0, run->reach_mm3[size_t(run->left_reach)] / 1000.0,
-                     (long long)run->left_step);
+                     (long long)run->left_step,
+                     fine == kFirstResolution ? "the first run stands" : "the finer run again without re-spacing");
+      if (fine == kFirstResolution) {
+        run->start_from_coarse = false;
+        run->first_run_stands = true;
+      }
       pass(rq.max_steps);
     }
   } catch (const NoFinerStart& no) {
@@ -949,9 +973,12 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
   if (run.start_from_coarse) cj.set("finer_run_given_up", run.finer_given_up);
   // The finer run that stands re-spaced its loops (refinement_reach.h); or
   // the object whose re-spacing left its first run's reach, and the finer
-  // run was made again without.
-  if (run.start_from_coarse) cj.set("finer_run_respaced", run.finer_respaced);
-  if (run.start_from_coarse && run.left_reach >= 0) {
+  // run was made again without (first_run_stands: the pass at the first
+  // run's own resolution left it, and the first run was made again).
+  const bool second_pass = run.start_from_coarse || run.first_run_stands;
+  if (second_pass) cj.set("finer_run_respaced", run.finer_respaced);
+  if (second_pass) cj.set("first_run_stands", run.first_run_stands);
+  if (second_pass && run.left_reach >= 0) {
     ffseg_tools::Json lr = ffseg_tools::Json::object();
     lr.set("object", run.left_reach + 1);
     lr.set("name", rq.names[size_t(run.left_reach)]);
