@@ -45,10 +45,22 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The workspace: 64-byte aligned, freed on scope exit (after ffseg_destroy).
+// The workspace: 64-byte aligned, freed on scope exit (after ffseg_destroy);
+// one owner at a time.
 struct Workspace {
   void* p = nullptr;
   ffseg_engine* e = nullptr;
+  Workspace() = default;
+  Workspace(const Workspace&) = delete;
+  Workspace& operator=(const Workspace&) = delete;
+  Workspace& operator=(Workspace&& o) noexcept {
+    if (this != &o) {
+      release();
+      std::swap(p, o.p);
+      std::swap(e, o.e);
+    }
+    return *this;
+  }
   void release() {
     ffseg_destroy(e);
     std::free(p);
@@ -245,20 +257,38 @@ std::vector<float> scaled_about_centroid(const std::vector<float>& xyz, double f
   return out;
 }
 
-// The engine's run: its workspace (the results are read from it), how it
-// went and how long it took.
-struct EngineRun {
-  Workspace ws;
+// What the last pass left for the outputs beside its engine: its engine's
+// sizes and placements, how its steps went and how long they took.
+struct PassRecord {
   ffseg_config cfg{};
   size_t ws_bytes = 0;
   uint32_t resolution = 0;         // the last run's mesh resolution
-  uint32_t wanted_resolution = 0;  // automatic: what the first run's surfaces asked for
   std::vector<std::array<double, 3>> centres_mm;
   uint64_t stage_us[FFSEG_STAGE_COUNT] = {0};
   ffseg_step_info info{};
   bool converged = false;
   int64_t steps = 0;
   std::vector<uint32_t> border_vertices;  // at the last step each object moved
+  // Where the last engine placed each object: kStartSphere or
+  // kStartFirstRun (its first-run mesh, scaled by first_run_scale).
+  std::vector<uint8_t> start;
+  std::vector<double> first_run_scale;
+  std::vector<std::array<double, 3>> far;  // outward, inward, vertices: at each object's last moving step
+  // Steps of the last pass in which each object's mesh re-spaced its loops
+  // (ffseg_step_info.respaced), and whether its first step did: a grey-level
+  // object then grows freely (grey_respacing; by default where its boundary
+  // is in view).
+  std::vector<int64_t> respaced_steps;
+  std::vector<uint8_t> grows_freely;
+  double t_stepping = 0;  // seconds: the last pass's steps (as stage_us)
+  bool budget_reduced = false;  // the last engine's sizes are below the scan's (workspace_budget.h)
+};
+
+// The engine's run: its workspace (the results are read from it), the last
+// pass's record, and what the passes before it left.
+struct EngineRun : PassRecord {
+  Workspace ws;
+  uint32_t wanted_resolution = 0;  // automatic: what the first run's surfaces asked for
   // Coarse to fine (a resolution above the first): each object's first-run
   // mesh (xyz, kFirstResolution) the finer run starts from, and whether that
   // run stalled; stalled: each object's FFSEG_OBJECT_STALLED at the end, and
@@ -281,21 +311,10 @@ struct EngineRun {
   // The finer run was given up for the first run's resolution (run_engine_once).
   bool finer_given_up = false;
   // The re-spaced pass at the first run's own resolution (run_engine_once)
-  // left its reach, and the first run was made again to stand.
+  // left its reach, and the first run, kept meanwhile, stands.
   bool first_run_stands = false;
-  // Where the last engine placed each object: kStartSphere or
-  // kStartFirstRun (its first-run mesh, scaled by first_run_scale).
-  std::vector<uint8_t> start;
-  std::vector<double> first_run_scale;
-  std::vector<std::array<double, 3>> far;  // outward, inward, vertices: at each object's last moving step
-  // Steps of the last pass in which each object's mesh re-spaced its loops
-  // (ffseg_step_info.respaced), and whether its first step did: a grey-level
-  // object then grows freely (grey_respacing; by default where its boundary
-  // is in view).
-  std::vector<int64_t> respaced_steps;
-  std::vector<uint8_t> grows_freely;
-  // Seconds: every pass's engine setup; the last pass's steps (as stage_us).
-  double t_setup = 0, t_stepping = 0;
+  // Seconds: every pass's engine setup.
+  double t_setup = 0;
   // Every pass's steps and stepping (the first run's and the finer run's):
   // what the whole segmentation cost, not only its last pass.
   int64_t steps_all = 0;
@@ -304,7 +323,6 @@ struct EngineRun {
   // The workspace budget the engines are sized by: --memory, doubled each
   // time an organ outgrew a crop or region the budget gave it (run_engine).
   uint64_t memory_bytes = 0;
-  bool budget_reduced = false;  // the last engine's sizes are below the scan's (workspace_budget.h)
   int budget_raises = 0;
 };
 
@@ -699,13 +717,19 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   try {
     // An object that leaves its reach gets the run it would have had
     // without re-spacing: the finer run made again without, or at the first
-    // run's resolution the first run itself, made again from the sphere
-    // (the same steps bit for bit). Stepping on from its surface at rest
-    // instead is no such run: the rest rules start afresh and a leaker
-    // creeps on (the 3 mm gallbladder 161 -> 180 ml).
+    // run's resolution the first run itself, whose engine is kept while the
+    // pass runs. Stepping on from its surface at rest instead is no such
+    // run: the rest rules start afresh and a leaker creeps on (the 3 mm
+    // gallbladder 161 -> 180 ml).
     run->respacing = respaceable;
     run->finer_respaced = run->respacing;
     run->left_reach = -1;
+    PassRecord first;
+    Workspace first_ws;
+    if (fine == kFirstResolution) {
+      first = *run;
+      first_ws = std::move(run->ws);
+    }
     pass(rq.max_steps);
     run->respacing = false;
     if (run->left_reach >= 0) {
@@ -718,10 +742,13 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
                      (long long)run->left_step,
                      fine == kFirstResolution ? "the first run stands" : "the finer run again without re-spacing");
       if (fine == kFirstResolution) {
+        static_cast<PassRecord&>(*run) = first;
+        run->ws = std::move(first_ws);
         run->start_from_coarse = false;
         run->first_run_stands = true;
+      } else {
+        pass(rq.max_steps);
       }
-      pass(rq.max_steps);
     }
   } catch (const NoFinerStart& no) {
     run->respacing = false;
