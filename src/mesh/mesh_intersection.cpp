@@ -434,12 +434,19 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
     if (above != kNone)
       while (first < c.tri_ptr[d + 1] && c.cl_tris[first++] != above) {
       }
+    // The bounds in locals and the six tests joined by | rather than ||:
+    // else the compiler branches on each test (about half of them
+    // mispredicted) and reloads the bounds' pointers after every store to
+    // cand, which might alias them.
+    const double *bx0 = plx, *by0 = ply, *bz0 = plz, *bx1 = phx, *by1 = phy, *bz1 = phz;
     for (uint32_t k0 = first, end = c.tri_ptr[d + 1]; k0 < end; k0 += kChunk) {
       const uint32_t k1 = end - k0 < uint32_t(kChunk) ? end : k0 + kChunk;
       int nc = 0;
       for (uint32_t k = k0; k < k1; ++k) {
+        const bool apart = (bx0[k] > h0) | (l0 > bx1[k]) | (by0[k] > h1) | (l1 > by1[k]) | (bz0[k] > h2) |
+                           (l2 > bz1[k]);
         cand[nc] = k;
-        nc += !(plx[k] > h0 || l0 > phx[k] || ply[k] > h1 || l1 > phy[k] || plz[k] > h2 || l2 > phz[k]);
+        nc += !apart;
       }
       for (int i = 0; i < nc; ++i)
         if (decide(t, c.cl_tris[cand[i]])) return true;
