@@ -95,6 +95,16 @@ bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint
   return detail::disjoint_triangles_cross(A, B);
 }
 
+// triangles_cross() for a pair already known to share no vertex: its last
+// line, without counting the shared vertices again.
+inline bool disjoint_cross(const double* x, const TriangleScratch& s, uint32_t t, uint32_t u) {
+  const uint32_t* a = s.tris + 3 * size_t(t);
+  const uint32_t* b = s.tris + 3 * size_t(u);
+  const double *A[3] = {x + 3 * size_t(a[0]), x + 3 * size_t(a[1]), x + 3 * size_t(a[2])},
+               *B[3] = {x + 3 * size_t(b[0]), x + 3 * size_t(b[1]), x + 3 * size_t(b[2])};
+  return detail::disjoint_triangles_cross(A, B);
+}
+
 }  // namespace
 
 namespace {
@@ -402,13 +412,16 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
   auto decide = [&](uint32_t t, uint32_t u) {
     if (t == u) return false;
     if (t > u) std::swap(t, u);
+    // The boxes overlap: against() passes only those, by the same six
+    // comparisons of the same bounds.
     const int shared = P.shared_vertices(t, u);
-    if (shared >= 2 || !P.overlap(t, u)) return false;
+    if (shared >= 2) return false;
     // Sharing one vertex (most pairs of a failed window): fan_pairs()' plane
     // filter first, which answers no only where triangles_cross() would.
     if (shared == 1 && P.fan_pair_apart(t, u)) return false;
     // hit() stops the walk only without marks.
-    return P.spheres_meet(t, u) && triangles_cross(x, s, t, u) && P.hit(t, u);
+    return P.spheres_meet(t, u) && (shared ? triangles_cross(x, s, t, u) : disjoint_cross(x, s, t, u)) &&
+           P.hit(t, u);
   };
   auto cluster_tris = [&](uint32_t cl, auto&& f) {
     for (uint32_t k = c.tri_ptr[cl]; k < c.tri_ptr[cl + 1]; ++k)
@@ -418,7 +431,7 @@ int certified_check(const CubeSphere& m, const double* x, TriangleScratch& s, ui
   // Triangle t against the triangles of cluster d, when t's box meets d's:
   // first the box test against every triangle of d, without branches, on
   // the certificate's packed boxes (the same bounds as s.lo / s.hi), then
-  // decide() on the ones that meet t's box (its own box test passes again).
+  // decide() on the ones that meet t's box.
   const size_t nt = c.ntri;
   const double *plx = c.pbox, *ply = plx + nt, *plz = ply + nt, *phx = plz + nt, *phy = phx + nt, *phz = phy + nt;
   // above: with a triangle id, only the triangles after it in d's list
