@@ -72,6 +72,12 @@ inline bool same_side_certain(const double* n, const double* o, const double* p,
 // triangle's plane. So when the far vertices of one lie beyond doubt
 // (same_side_certain) on one side of the other's plane, the answer is no.
 
+// Triangle t's corners in x.
+inline void corners(const double* x, const TriangleScratch& s, uint32_t t, const double* C[3]) {
+  const uint32_t* a = s.tris + 3 * size_t(t);
+  for (int i = 0; i < 3; ++i) C[i] = x + 3 * size_t(a[i]);
+}
+
 bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint32_t u) {
   const uint32_t* a = s.tris + 3 * size_t(t);
   const uint32_t* b = s.tris + 3 * size_t(u);
@@ -84,8 +90,9 @@ bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint
         sb = j;
       }
   if (shared >= 2) return false;  // neighbours across an edge: the fold test's business
-  auto P = [&](uint32_t v) { return x + 3 * size_t(v); };
-  const double *A[3] = {P(a[0]), P(a[1]), P(a[2])}, *B[3] = {P(b[0]), P(b[1]), P(b[2])};
+  const double *A[3], *B[3];
+  corners(x, s, t, A);
+  corners(x, s, u, B);
   if (shared == 1) {
     // Only the edges opposite the shared vertex can cross the other triangle
     // away from that vertex.
@@ -98,10 +105,9 @@ bool triangles_cross(const double* x, const TriangleScratch& s, uint32_t t, uint
 // triangles_cross() for a pair already known to share no vertex: its last
 // line, without counting the shared vertices again.
 inline bool disjoint_cross(const double* x, const TriangleScratch& s, uint32_t t, uint32_t u) {
-  const uint32_t* a = s.tris + 3 * size_t(t);
-  const uint32_t* b = s.tris + 3 * size_t(u);
-  const double *A[3] = {x + 3 * size_t(a[0]), x + 3 * size_t(a[1]), x + 3 * size_t(a[2])},
-               *B[3] = {x + 3 * size_t(b[0]), x + 3 * size_t(b[1]), x + 3 * size_t(b[2])};
+  const double *A[3], *B[3];
+  corners(x, s, t, A);
+  corners(x, s, u, B);
   return detail::disjoint_triangles_cross(A, B);
 }
 
