@@ -20,7 +20,8 @@ reformatted into thin ones, the noise oversampled along one axis).
 Written once into --work (default /tmp/ffseg-abdomen-ct).
 
 usage: scripts/abdomen_ct.py [--spacing 3|1|both|XxYxZ] [--organs 5,1,...] [--together]
-                             [--resolution auto|N] [--jitter K] [--noise SD] [--cli build/ffseg] [--work DIR]
+                             [--resolution auto|N] [--jitter K] [--noise SD] [--arterial]
+                             [--cli build/ffseg] [--work DIR]
 Needs /usr/bin/python3 with numpy and nibabel (Debian python3-numpy, python3-nibabel).
 """
 import argparse
@@ -91,7 +92,7 @@ def arterial(work, src=DATA):
     contrast-enhanced CT on the same anatomy (issue 29: a vessel of its own
     grey level); returns the directory."""
     import nibabel as nib
-    out = os.path.join(work, "arterial")
+    out = os.path.join(work, "arterial" if src == DATA else os.path.basename(src) + "_arterial")
     ct_path, lab_path = os.path.join(out, "ct.nii.gz"), os.path.join(out, "labels.nii.gz")
     if os.path.exists(ct_path) and os.path.exists(lab_path):
         return out
@@ -261,6 +262,9 @@ def main():
     ap.add_argument("--jitter", type=int, default=0, metavar="K",
                     help="also segment each organ alone from its sphere moved by half its radius "
                          "along K of +-x, +-y, +-z (K <= 6) and print the mean Dice over the 1 + K runs")
+    ap.add_argument("--arterial", action="store_true",
+                    help="the scan with an arterial phase laid on (arterial(): ARTERIAL_HU added inside "
+                         "the labels), before any resampling")
     ap.add_argument("--noise", type=float, default=0, metavar="SD",
                     help="add white noise of SD HU to the scan first (numpy seed 1): a noisier "
                          "acquisition of the same anatomy")
@@ -282,6 +286,8 @@ def main():
         # thick slices reformatted into thin ones: the noise oversampled
         # along one axis).
         src = noisier(args.noise, args.work) if args.noise > 0 else DATA
+        if args.arterial:
+            src = arterial(args.work, src)
         data_dir = src if sp == "3" else resample(3 if sp == "1" else axis_factors(sp), args.work, src)
         print(f"\n{sp} mm grid ({data_dir}), mesh resolution {args.resolution}")
         jit_head = f" Dice over 1 + {args.jitter} spheres: mean (min-max) |" if args.jitter else ""
