@@ -10,9 +10,9 @@
 
 namespace ffseg {
 
-void RegionMap::carve(Arena& a, int64_t max_voxels) {
+void RegionMap::carve(Arena& a, int64_t max_voxels, bool speed_table) {
   t = a.alloc<float>(max_voxels > 0 ? size_t(max_voxels) : 0);
-  speed.table = a.alloc<float>(kSpeedTableSize);
+  speed.table = speed_table ? a.alloc<float>(kSpeedTableSize) : nullptr;
   speed.epoch = 0;
   valid = false;
 }

@@ -67,7 +67,7 @@ constexpr int kSpeedTableSize = 4096;
 // mm: 56 of 141 tables the same), while a table costs 16 blocks of the
 // posterior's exps per class of every model.
 struct SpeedTableCache {
-  float* table = nullptr;  // kSpeedTableSize entries
+  float* table = nullptr;  // kSpeedTableSize entries (nullptr: none kept)
   double lo = 0, hi = 0;   // the value range it was made for
   uint64_t epoch = 0;      // RegionSpeed::models_epoch it was made at (0: none)
 };
@@ -84,7 +84,9 @@ struct RegionMap {
   uint32_t computed_at = 0;   // the engine step that computed it
   SpeedTableCache speed;
   bool valid = false;
-  void carve(Arena& a, int64_t max_voxels);
+  // speed_table: room for the kept speed table (grey levels; a binary
+  // front's speed is the indicator, no table).
+  void carve(Arena& a, int64_t max_voxels, bool speed_table);
   bool unit_cells() const { return f[0] == 1 && f[1] == 1 && f[2] == 1; }
   // Arrival time at voxel (i, j, k) of the volume grid (its cell's); +inf
   // outside the box. The ownership test asks it of every region at every

@@ -87,7 +87,7 @@ void Engine::layout(Arena& a) {
     if (regions) {
       RegionMap probe_map;
       o->region = region_maps_ ? new (&region_maps_[i]) RegionMap() : &probe_map;
-      o->region->carve(a, cfg_.region_voxels());
+      o->region->carve(a, cfg_.region_voxels(), grey);
       if (!region_maps_) o->region = nullptr;
     }
   }
