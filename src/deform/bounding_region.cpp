@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 #include "min_max.h"
 #include "rasterize.h"
@@ -9,8 +10,10 @@
 
 namespace ffseg {
 
-void RegionMap::carve(Arena& a, int64_t max_voxels) {
+void RegionMap::carve(Arena& a, int64_t max_voxels, bool speed_table) {
   t = a.alloc<float>(max_voxels > 0 ? size_t(max_voxels) : 0);
+  speed.table = speed_table ? a.alloc<float>(kSpeedTableSize) : nullptr;
+  speed.epoch = 0;
   valid = false;
 }
 
@@ -35,8 +38,6 @@ bool RegionMap::holds(const VolumeView& vol, const double* x, uint32_t nv, doubl
 }
 
 namespace {
-
-constexpr int kSpeedTable = 4096;
 
 // The cells of the box, for the speed and seed passes.
 struct CellBox {
@@ -76,29 +77,45 @@ void for_each_value(const VolumeView& vol, const SmoothedRoi* roi, const int64_t
     }
 }
 
-// The posterior of eq. 6.2.2-6.2.3 tabulated over [vmin, vmax], linear in between.
+// The posterior of eq. 6.2.2-6.2.3 tabulated over [vmin, vmax], linear in
+// between: made into table (kSpeedTableSize entries), or taken from cache
+// when it holds the table of the same range at the same models' epoch (the
+// same function of the same values: the same floats).
 struct SpeedTable {
-  float table[kSpeedTable];
+  const float* table;
   double vmin, inv;
-  SpeedTable(const RegionSpeed& sp, double lo, double hi) : vmin(lo) {
-    const double step = hi > lo ? (hi - lo) / (kSpeedTable - 1) : 1.0;
+  SpeedTable(const RegionSpeed& sp, double lo, double hi, float* own, SpeedTableCache* cache) : vmin(lo) {
+    const double step = hi > lo ? (hi - lo) / (kSpeedTableSize - 1) : 1.0;
+    inv = 1.0 / step;
+    const bool keep = cache && cache->table && sp.models_epoch != 0;
+    if (keep && cache->epoch == sp.models_epoch && same_bits(cache->lo, lo) && same_bits(cache->hi, hi)) {
+      table = cache->table;
+      return;
+    }
+    float* out = keep ? cache->table : own;
     // A block of entries at a time: the posteriors' exps go through the
     // vector kernel, whose values are std::exp's bit for bit.
     constexpr int kBlock = 256;
-    static_assert(kSpeedTable % kBlock == 0, "whole blocks");
+    static_assert(kSpeedTableSize % kBlock == 0, "whole blocks");
     double v[kBlock], p[kBlock];
-    for (int first = 0; first < kSpeedTable; first += kBlock) {
+    for (int first = 0; first < kSpeedTableSize; first += kBlock) {
       for (int t = 0; t < kBlock; ++t) v[t] = lo + (first + t) * step;
       sp.model->posterior_against(v, kBlock, sp.others, sp.other_count, p);
-      for (int t = 0; t < kBlock; ++t) table[first + t] = float(p[t]);
+      for (int t = 0; t < kBlock; ++t) out[first + t] = float(p[t]);
     }
-    inv = 1.0 / step;
+    if (keep) {
+      cache->epoch = sp.models_epoch;
+      cache->lo = lo;
+      cache->hi = hi;
+    }
+    table = out;
   }
+  static bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
   float operator()(float v) const {
     if (!std::isfinite(v)) return 0.0f;
     const double f = (double(v) - vmin) * inv;
     int b = int(f);
-    if (b >= kSpeedTable - 1) b = kSpeedTable - 2;
+    if (b >= kSpeedTableSize - 1) b = kSpeedTableSize - 2;
     if (b < 0) b = 0;
     const double w = f - b;
     return float(table[b] + w * (table[b + 1] - table[b]));
@@ -107,7 +124,8 @@ struct SpeedTable {
 
 // The speed image over the box's cells (fm's layout), eq. 6.2.2-6.2.3: per
 // voxel on unit cells, else the mean of each cell's voxels.
-void fill_speed(const VolumeView& vol, const RegionSpeed& sp, const CellBox& cb, float* s) {
+// cache (may be nullptr): the region's last table (SpeedTable).
+void fill_speed(const VolumeView& vol, const RegionSpeed& sp, const CellBox& cb, float* s, SpeedTableCache* cache) {
   const int64_t* lo = cb.lo;
   const int64_t* n = cb.n;
   const bool unit = cb.unit();
@@ -134,15 +152,16 @@ void fill_speed(const VolumeView& vol, const RegionSpeed& sp, const CellBox& cb,
       }
     });
   }
+  float own[kSpeedTableSize];  // the table when none is kept
   if (unit) {
-    const SpeedTable table(sp, vmin, vmax);
+    const SpeedTable table(sp, vmin, vmax, own, cache);
     for (int64_t p = 0; p < q; ++p) s[p] = table(s[p]);
     return;
   }
   // Cells: the sum of their voxels' speeds, then the mean.
   for (int64_t c = 0; c < cells; ++c) s[c] = 0.0f;
   if (sp.model) {
-    const SpeedTable table(sp, vmin, vmax);
+    const SpeedTable table(sp, vmin, vmax, own, cache);
     for_each_value(vol, sp.roi, lo, n, [&](int64_t i, int64_t j, int64_t k, double v) {
       s[cb.cell(i, j, k)] += table(float(v));
     });
@@ -259,7 +278,7 @@ RegionStatus compute_region(const CubeSphere& m, const double* x, const VolumeVi
   }
   fm.seed_mask(seed_mask);
   float* s = fm.speed_buffer();
-  fill_speed(vol, speed, cb, s);
+  fill_speed(vol, speed, cb, s, &out.speed);
   const float cap = float(width_mm);
   fm.march(s, cap);
   const float* t = fm.times();

@@ -25,6 +25,11 @@ struct GuardCache {
   uint8_t* alt = nullptr;  // per face
   double* key = nullptr;   // 3 per vertex
   bool valid = false;
+  // What failed the last step's line search (a fold test's face, or the
+  // contacts after a passing fold test): its next step's line search asks
+  // it first. Only the order of the tests hangs on it.
+  uint32_t offence_face = kNone;
+  bool offence_contact = false;
   void carve(Arena& a, const CubeSphere& m);
 };
 

@@ -87,7 +87,7 @@ void Engine::layout(Arena& a) {
     if (regions) {
       RegionMap probe_map;
       o->region = region_maps_ ? new (&region_maps_[i]) RegionMap() : &probe_map;
-      o->region->carve(a, cfg_.region_voxels());
+      o->region->carve(a, cfg_.region_voxels(), grey);
       if (!region_maps_) o->region = nullptr;
     }
   }
@@ -522,8 +522,11 @@ Err Engine::update_regions() {
   const Params& p = params_;
   const double w = p.region_width();
   uint32_t nmodels = 0;  // every placed object's model competes in the others' speeds
-  for (uint32_t i = 0; i < cfg_.max_objects; ++i)
+  uint64_t epoch = 0;    // every model's generation counts, placed or not (RegionSpeed::models_epoch)
+  for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     if (objects_[i].placed && objects_[i].model.valid()) scratch_.models[nmodels++] = &objects_[i].model;
+    epoch += objects_[i].model.generation();
+  }
   for (uint32_t i = 0; i < cfg_.max_objects; ++i) {
     Object& o = objects_[i];
     if (!o.placed) continue;
@@ -531,8 +534,8 @@ Err Engine::update_regions() {
     const bool stale = !r.valid || (o.active() && (steps_ + 1 - r.computed_at >= p.region_interval ||
                                                    !r.holds(vol_, o.x, mesh_.nv, 0.5 * w)));
     if (!stale) continue;
-    const Err e = compute_object_region(mesh_, vol_, p, o, scratch_.models, nmodels, scratch_, steps_ + 1, msg_,
-                                        kMsgLen);
+    const Err e = compute_object_region(mesh_, vol_, p, o, scratch_.models, nmodels, epoch, scratch_, steps_ + 1,
+                                        msg_, kMsgLen);
     if (e != Err::ok) return e;
   }
   return Err::ok;

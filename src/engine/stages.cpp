@@ -108,14 +108,15 @@ void StepScratch::carve_regions(Arena& a, const CubeSphere& m, int64_t max_voxel
 }
 
 Err compute_object_region(const CubeSphere& m, const VolumeView& vol, const Params& p, Object& o,
-                          const IntensityModel* const* models, uint32_t model_count, StepScratch& s, uint32_t step,
-                          char* msg, size_t msg_len) {
+                          const IntensityModel* const* models, uint32_t model_count, uint64_t models_epoch,
+                          StepScratch& s, uint32_t step, char* msg, size_t msg_len) {
   RegionSpeed speed;
   if (p.target_mode == TargetMode::intensity) {
     speed.model = &o.model;
     speed.roi = &o.roi;
     speed.others = models;
     speed.other_count = model_count;
+    speed.models_epoch = models_epoch;
   }
   const RegionStatus r =
       compute_region(m, o.x, vol, speed, p.region_width(), s.fm, s.seed_mask, *o.region, msg, msg_len);

@@ -24,11 +24,13 @@ Err compute_features(const VolumeView& vol, const Params& p, uint32_t nv, Object
 // Several objects (thesis 6.2): o's bounding region from its mesh o.x, with
 // its features' speed (grey levels: against the scene and the placed
 // objects' models, models[0..model_count), o's own among them or not) or
-// the indicator's (binary), marched in s.fm. Writes o.region; on failure a
-// message (too large a box: roi_too_large).
+// the indicator's (binary), marched in s.fm. models_epoch: the sum of the
+// generations of every model the engine holds (RegionSpeed::models_epoch;
+// 0: unknown). Writes o.region; on failure a message (too large a box:
+// roi_too_large).
 Err compute_object_region(const CubeSphere& m, const VolumeView& vol, const Params& p, Object& o,
-                          const IntensityModel* const* models, uint32_t model_count, StepScratch& s, uint32_t step,
-                          char* msg, size_t msg_len);
+                          const IntensityModel* const* models, uint32_t model_count, uint64_t models_epoch,
+                          StepScratch& s, uint32_t step, char* msg, size_t msg_len);
 
 // Correspondences along the normals of x (thesis 4.2.2, 5.3): the binary
 // crossing or, for grey levels, the boundary of the object's model (o's roi

@@ -101,6 +101,7 @@ void say(char* msg, size_t n, const char* text) {
 }  // namespace
 
 void IntensityModel::carve(Arena& a, uint32_t max_samples, const CpuDispatch& cpu) {
+  ++generation_;
   cpu_ = cpu;
   cap_ = max_samples;
   samples_ = a.alloc<float>(max_samples);
@@ -327,6 +328,7 @@ ModelStatus IntensityModel::fit_samples(const float* x, uint32_t n, double sigma
 
 ModelStatus IntensityModel::fit_object(const float* x, uint32_t n, double sigma_floor,
                                        const IntensityModelSettings& s, char* msg, size_t msg_len) {
+  ++generation_;
   m_ = 0;
   lut_n_ = 0;
   if (n == 0 || x == nullptr) {

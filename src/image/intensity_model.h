@@ -202,7 +202,11 @@ class IntensityModel {
                           char* msg = nullptr, size_t msg_len = 0);
 
   bool valid() const { return m_ > 0; }
-  void reset() { m_ = 0; sm_ = 0; lut_n_ = 0; in_view_ = false; }
+  void reset() { m_ = 0; sm_ = 0; lut_n_ = 0; in_view_ = false; ++generation_; }
+  // Counts the changes of the model (carve, every fit, reset): a caller that
+  // keeps what it computed from models knows them unchanged while their
+  // generations are (the bounding regions' speed table, bounding_region.h).
+  uint64_t generation() const { return generation_; }
   // Peak-normalised likelihood in [0, 1] (see the header note); table when there is one.
   double g(double v) const {
     if (lut_n_ > 0) {
@@ -296,6 +300,7 @@ class IntensityModel {
   uint32_t lut_n_ = 0;
   double lut_v0_ = 0, lut_inv_step_ = 1;
   bool in_view_ = false;
+  uint64_t generation_ = 0;
 };
 
 }  // namespace ffseg

@@ -101,10 +101,18 @@ TEST_CASE("workspace: pinned sizes of a few configurations (default max_roi_voxe
   // that cache holds their corners (mesh_contact.h: the cache's splits and
   // key, 16 B per obstacle in the contact test and per object in the
   // engine's scratch): +256 B for 8 objects, none for one.
-  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 231418880u);
-  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20072576u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 39632320u);
-  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 21700032u);
+  // Then each object's guard cache keeps what failed its last line search
+  // (a face and a flag, step_guard.h), asked first at the next step: +64 B
+  // for 8 objects; the one-object engines' records keep their rounded size.
+  // Then each object's bounding region keeps its last speed table (its key
+  // in the record, bounding_region.h; the 16 KiB table itself only where
+  // grey levels are allowed) and each model counts its generations (8 B in
+  // its record, intensity_model.h): +384 B for 8 binary objects, +64 B for
+  // one (a line more).
+  CHECK(workspace(12, 8, FFSEG_TARGET_BINARY) == 231419328u);
+  CHECK(workspace(12, 1, FFSEG_TARGET_INTENSITY) == 20072640u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_INTENSITY) == 39632384u);
+  CHECK(workspace(33, 1, FFSEG_TARGET_BINARY) == 21700096u);
 }
 
 TEST_CASE("workspace: grey-level buffers are per object and only in intensity configurations") {
