@@ -99,6 +99,10 @@ class Engine {
   float* crop_scratch_ = nullptr;
   uint32_t steps_ = 0;
   bool naive_ = false;
+  // EngineTesting::SpeedTables: the regions' kept speed tables as built
+  // (kept), never kept (none), or kept across model changes (stale: what
+  // a missed invalidation would do).
+  uint8_t speed_tables_ = 0;
   bool solver_failed_ = false;
   char msg_[kMsgLen] = {};
 };

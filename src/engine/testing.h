@@ -14,6 +14,12 @@ struct EngineTesting {
   // The naive variant of thesis fig. 4.10: vertices move straight towards
   // their targets; no flip or fold handling, no Laplacian solve.
   static void set_naive(Engine& e, bool on) { e.naive_ = on; }
+  // The bounding regions' speed tables (bounding_region.h): kept between
+  // computations while the models are the same (the engine's way), never
+  // kept, or kept across model changes (a missed invalidation, so that a
+  // test can show it would see one).
+  enum class SpeedTables : uint8_t { kept = 0, none = 1, stale = 2 };
+  static void set_speed_tables(Engine& e, SpeedTables t) { e.speed_tables_ = uint8_t(t); }
   // The kernels the engine chose at create.
   static const CpuDispatch& cpu(const Engine& e) { return e.cpu_; }
 };

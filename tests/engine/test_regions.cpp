@@ -23,6 +23,7 @@
 #include "rasterize.h"
 #include "support/sphere_box.h"
 #include "test_util.h"
+#include "testing.h"  // EngineTesting::set_speed_tables
 
 namespace {
 
@@ -580,4 +581,68 @@ TEST_CASE("regions: at the corners of the weights' ranges every vertex stays fin
     const CheckedRun r = run_pair_checked(bar, p);
     CHECK(r.borders > 0);  // the meshes met each other's regions: finding 6's path (border targets) was taken
   }
+}
+
+namespace {
+
+// Two grey-level objects in a bar of two levels (200 where i < 35, 120
+// beyond, 20 around it; noise-free, so that every region's box reads the
+// same value range, 20..200, and a kept table is taken whenever its epoch
+// allows), stepped 6 times; object 1 then placed again in the background under the bar, so
+// that its model is fitted again to another grey level, and both stepped 6
+// more. Their bounding regions and vertices at the end.
+std::vector<float> regions_and_vertices_after_a_refit(ffseg::EngineTesting::SpeedTables tables) {
+  const int64_t dims[3] = {70, 30, 30};
+  std::vector<uint8_t> v(size_t(dims[0] * dims[1] * dims[2]));
+  for (int64_t k = 0; k < dims[2]; ++k)
+    for (int64_t j = 0; j < dims[1]; ++j)
+      for (int64_t i = 0; i < dims[0]; ++i) {
+        const bool bar = i >= 10 && i < 60 && j >= 7 && j < 23 && k >= 7 && k < 23;
+        v[size_t((k * dims[1] + j) * dims[0] + i)] = uint8_t(bar ? (i < 35 ? 200 : 120) : 20);
+      }
+  ffseg_test::EngineBox eb(2, 12, int64_t(1) << 18);
+  REQUIRE(eb.e != nullptr);
+  ffseg::EngineTesting::set_speed_tables(*ffseg::capi::engine_of(eb.e), tables);
+  ffseg_params p;
+  ffseg_params_init_default(&p);
+  p.target_mode = FFSEG_TARGET_INTENSITY;
+  p.sigma_floor_fraction = 0.3;  // classes wide enough that 200 and 120 compete for the voxels between
+  REQUIRE(ffseg_set_params(eb.e, &p) == FFSEG_OK);
+  ffseg_volume vol = ffseg_test::make_volume(v.data(), FFSEG_U8, dims, kIdentity);
+  REQUIRE(ffseg_set_volume(eb.e, &vol) == FFSEG_OK);
+  const double c0[3] = {22.3, 15.1, 14.8}, c1[3] = {47.6, 14.9, 15.2};
+  REQUIRE(ffseg_init_sphere(eb.e, 0, c0, 3.0) == FFSEG_OK);
+  REQUIRE(ffseg_init_sphere(eb.e, 1, c1, 3.0) == FFSEG_OK);
+  for (int s = 0; s < 6; ++s) REQUIRE(ffseg_step(eb.e, nullptr) >= 0);
+  const double below[3] = {47.6, 14.9, 3.5};  // in the background under the bar: another grey level
+  REQUIRE(ffseg_init_sphere(eb.e, 1, below, 2.5) == FFSEG_OK);
+  for (int s = 0; s < 6; ++s) REQUIRE(ffseg_step(eb.e, nullptr) >= 0);
+  std::vector<float> all;
+  for (uint32_t o = 0; o < 2; ++o) {
+    std::vector<uint8_t> region(v.size());
+    REQUIRE(ffseg_region_mask(eb.e, o, region.data(), nullptr) == FFSEG_OK);
+    all.insert(all.end(), region.begin(), region.end());
+    size_t nv = 0, nt = 0;
+    REQUIRE(ffseg_extract_mesh(eb.e, o, nullptr, 0, nullptr, 0, &nv, &nt) == FFSEG_OK);
+    std::vector<float> xyz(nv * 3);
+    std::vector<uint32_t> tris(nt * 3);
+    REQUIRE(ffseg_extract_mesh(eb.e, o, xyz.data(), nv, tris.data(), nt, &nv, &nt) == FFSEG_OK);
+    all.insert(all.end(), xyz.begin(), xyz.end());
+  }
+  return all;
+}
+
+}  // namespace
+
+TEST_CASE("regions: a kept speed table is made again when a model changes: the same regions and meshes, bit for bit, as with none kept") {
+  using T = ffseg::EngineTesting::SpeedTables;
+  const std::vector<float> kept = regions_and_vertices_after_a_refit(T::kept), none = regions_and_vertices_after_a_refit(T::none);
+  REQUIRE(kept.size() == none.size());
+  CHECK(std::memcmp(kept.data(), none.data(), kept.size() * sizeof(float)) == 0);
+  // A table kept across the refit (object 0's speed competes with object
+  // 1's old model, object 1's is its old model's) gives other regions: the
+  // comparison above would see a missed invalidation.
+  const std::vector<float> stale = regions_and_vertices_after_a_refit(T::stale);
+  REQUIRE(stale.size() == none.size());
+  CHECK(std::memcmp(stale.data(), none.data(), stale.size() * sizeof(float)) != 0);
 }
