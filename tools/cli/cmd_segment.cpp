@@ -311,8 +311,13 @@ struct EngineRun : PassRecord {
   // The finer run was given up for the first run's resolution (run_engine_once).
   bool finer_given_up = false;
   // The re-spaced pass at the first run's own resolution (run_engine_once)
-  // left its reach, and the first run, kept meanwhile, stands.
+  // left its reach, and the first run, kept meanwhile, stands, or the run
+  // from the sphere at kLeakerResolution that encloses fewer voxels
+  // (refinement_reach.h): leaker_voxels its voxels (0: not run),
+  // leaker_run_stands when it is the result.
   bool first_run_stands = false;
+  uint64_t leaker_voxels = 0;
+  bool leaker_run_stands = false;
   // Seconds: every pass's engine setup.
   double t_setup = 0;
   // Every pass's steps and stepping (the first run's and the finer run's):
@@ -597,6 +602,37 @@ std::vector<uint64_t> object_voxels(const ffseg_engine* e, const ffseg_tools::Ni
   return n;
 }
 
+// A first run whose re-spaced pass left its reach (one object,
+// refinement_reach.h) is made again from the sphere at kLeakerResolution;
+// the run that encloses fewer voxels stands. run holds the first run and
+// its engine; pass(limit) runs an engine at run->resolution from the
+// spheres (run->start_from_coarse false) and returns whether it came to rest.
+template <class Pass>
+void run_leaker_again(const SegmentRequest& rq, const ffseg_tools::NiftiImage& img, EngineRun* run, Pass& pass) {
+  const uint64_t first_voxels = run->coarse_voxels[0];
+  PassRecord first = *run;
+  Workspace first_ws;
+  first_ws = std::move(run->ws);
+  run->resolution = kLeakerResolution;
+  const bool at_rest = pass(rq.max_steps);
+  run->leaker_voxels = object_voxels(run->ws.e, img, 1)[0];
+  const bool result = at_rest && run->info.flags_all == 0;  // neither stalled nor without a boundary
+  const bool smaller = result && run->leaker_voxels < first_voxels;
+  if (!rq.quiet)
+    std::fprintf(stderr, "ffseg: made again from its sphere at mesh resolution %u, it encloses %llu voxels "
+                 "against the first run's %llu: %s\n", kLeakerResolution, (unsigned long long)run->leaker_voxels,
+                 (unsigned long long)first_voxels,
+                 smaller ? "that run stands" : !result ? "it found no rest, the first run stands" : "the first run stands");
+  if (smaller) {
+    run->leaker_run_stands = true;
+    run->first_run_stands = false;
+    return;
+  }
+  // The first run's record and engine back (every pass's cost stays counted).
+  static_cast<PassRecord&>(*run) = first;
+  run->ws = std::move(first_ws);
+}
+
 // The deformation. Without --mesh-resolution the first run at
 // kFirstResolution comes to rest (or --max-steps) and measures each object's
 // surface there, and the run is made again at a finer resolution when they
@@ -629,6 +665,8 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
   run->start_from_coarse = false;
   run->finer_given_up = false;
   run->first_run_stands = false;
+  run->leaker_voxels = 0;
+  run->leaker_run_stands = false;
   run->from_coarse.assign(nobj, 0);
   // (Also when run_engine starts again with more memory mid-pass.)
   run->respacing = false;
@@ -740,12 +778,13 @@ void run_engine_once(const SegmentRequest& rq, const ffseg_tools::NiftiImage& im
                      (long long)run->left_reach + 1, rq.names[size_t(run->left_reach)].c_str(), fine,
                      run->left_mm3 / 1000.0, run->reach_mm3[size_t(run->left_reach)] / 1000.0,
                      (long long)run->left_step,
-                     fine == kFirstResolution ? "the first run stands" : "the finer run again without re-spacing");
+                     fine == kFirstResolution ? "its first run is kept" : "the finer run again without re-spacing");
       if (fine == kFirstResolution) {
         static_cast<PassRecord&>(*run) = first;
         run->ws = std::move(first_ws);
         run->start_from_coarse = false;
         run->first_run_stands = true;
+        run_leaker_again(rq, img, run, pass);
       } else {
         pass(rq.max_steps);
       }
@@ -1001,8 +1040,10 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
   // The finer run that stands re-spaced its loops (refinement_reach.h); or
   // the object whose re-spacing left its first run's reach, and the finer
   // run was made again without (first_run_stands: the pass at the first
-  // run's own resolution left it, and the first run was made again).
-  const bool second_pass = run.start_from_coarse || run.first_run_stands;
+  // run's own resolution left it, and the first run was kept). leaker_run:
+  // that first run made again from the sphere at kLeakerResolution
+  // (refinement_reach.h), its voxels and whether it stands.
+  const bool second_pass = run.start_from_coarse || run.first_run_stands || run.leaker_run_stands;
   if (second_pass) cj.set("finer_run_respaced", run.finer_respaced);
   if (second_pass) cj.set("first_run_stands", run.first_run_stands);
   if (second_pass && run.left_reach >= 0) {
@@ -1013,6 +1054,14 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
     lr.set("volume_ml", run.left_mm3 / 1000.0);
     lr.set("reach_ml", run.reach_mm3[size_t(run.left_reach)] / 1000.0);
     cj.set("finer_run_left_reach", lr);
+  }
+  if (run.leaker_voxels > 0) {
+    ffseg_tools::Json lk = ffseg_tools::Json::object();
+    lk.set("mesh_resolution", kLeakerResolution);
+    lk.set("voxels", run.leaker_voxels);
+    lk.set("first_run_voxels", run.coarse_voxels[0]);
+    lk.set("stands", run.leaker_run_stands);
+    cj.set("leaker_run", lk);
   }
   if (automatic) {
     // The first run's resolution and what its surfaces asked for (mesh_resolution.h).

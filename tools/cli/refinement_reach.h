@@ -14,6 +14,19 @@
 // leak free growth makes of an organ whose boundary is not in view
 // (intensity_model.h). The finer run is then made again without re-spacing,
 // as it was before, so no object ends where the leak took it.
+//
+// Where the first run's resolution is kept, the re-spaced pass at it that
+// leaves its reach tells the same: the object's grey level goes on past the
+// surface its first run rested at, and the first run, which crept along the
+// same way until its rest rules stopped it, has likely leaked too (the 3 mm
+// CT's gallbladder 161 ml of 35, vena cava 87 of 58, aorta 69 of 48). Such
+// an object is run once more from its sphere at kLeakerResolution, a mesh
+// whose quads are twice as wide (the first run's mesh is this one with each
+// cell split into four): it cannot follow a passage as narrow, and it
+// creeps half as far in a step of the same relative size. Of the two runs
+// the one that encloses fewer voxels stands; a run that stalls or finds no
+// boundary is no candidate. Chosen on the choosing set of the shared CT
+// (BENCHMARKS.md section 12, sixteenth session).
 #ifndef FFSEG_CLI_REFINEMENT_REACH_H
 #define FFSEG_CLI_REFINEMENT_REACH_H
 
@@ -21,6 +34,10 @@
 #include <vector>
 
 namespace ffseg_cli {
+
+// The resolution a leaker's first run is made again at (see above): half
+// the first run's (mesh_resolution.h: kFirstResolution = 12).
+constexpr uint32_t kLeakerResolution = 6;
 
 // Volume (mm^3) a closed, outward-oriented triangle mesh encloses
 // (divergence theorem): xyz 3 floats per vertex, tris 3 indices each.

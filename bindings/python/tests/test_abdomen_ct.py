@@ -95,7 +95,7 @@ def test_the_portal_vein_at_3mm_is_segmented_not_refused_as_no_boundary(tmp_path
 # model's contrast scale within Tukey's fences bought (0.06 and 21x its
 # volume before: a box with 6% air made the floor 44 HU wide); the leak
 # ceiling guards against its return.
-CHOOSING_3MM = {5: ("liver", 0.88), 1: ("spleen", 0.85), 3: ("kidney left", 0.85), 4: ("gallbladder", 0.32),
+CHOOSING_3MM = {5: ("liver", 0.88), 1: ("spleen", 0.85), 3: ("kidney left", 0.85), 4: ("gallbladder", 0.45),
                 7: ("aorta", 0.39), 102: ("iliopsoas left", 0.65), 96: ("gluteus medius left", 0.52)}
 
 
@@ -107,49 +107,63 @@ def test_choosing_set_at_3mm_holds_its_figures_and_the_gallbladder_stays_near_it
         dice[organ] = d
         assert d >= floor, name
         if organ == 4:
-            assert ratio <= 6.0  # 4.6x measured; 21.5x before
-    assert sum(dice.values()) / len(dice) >= 0.65  # 0.662 measured
+            assert ratio <= 3.5  # 2.8x measured (its n = 6 run); 21.5x before
+    assert sum(dice.values()) / len(dice) >= 0.67  # 0.685 measured
 
 
-def test_where_auto_keeps_n12_one_organ_re_spaces_in_a_second_pass_and_past_its_reach_the_first_run_stands(tmp_path):
+def test_where_auto_keeps_n12_one_organ_re_spaces_in_a_second_pass_and_past_its_reach_leaks_less(tmp_path):
     """Where the automatic resolution keeps n = 12, one grey-level organ
     re-spaces its loops in a second pass at 12 from its first-run surface,
     within the same reach as a finer run (tools/cli/refinement_reach.h). The
     3 mm left kidney stays within it and fills the part its first run jammed
-    short of (0.813 -> 0.873 measured). The gallbladder leaves it, and its
-    first run, kept meanwhile, stands: voxel for voxel the one run that
-    --mesh-resolution 12 makes."""
+    short of (0.813 -> 0.873 measured). An organ that leaves it is a leaker:
+    it is made again from its sphere at n = 6, and of that run and its first
+    run, kept meanwhile, the one with fewer voxels stands, voxel for voxel
+    the one run --mesh-resolution 6 or 12 makes. The gallbladder's n = 6 run
+    stands (161 -> 99 ml of 35 measured); the pancreas' is larger (255
+    against 247 ml), so its first run stands."""
     nib = pytest.importorskip("nibabel")
     import numpy as np
     lab = os.path.join(abdomen_ct.DATA, "labels.nii.gz")
+    runs = {3: ("auto", "12"), 4: ("auto", "12", "6"), 10: ("auto", "12", "6")}
     reps, maps, said = {}, {}, {}
-    for organ in (3, 4):
-        for tag, extra in (("auto", ()), ("12", ("--mesh-resolution", "12"))):
+    for organ, tags in runs.items():
+        for tag in tags:
             out = str(tmp_path / f"{organ}_{tag}")
+            extra = () if tag == "auto" else ("--mesh-resolution", tag)
             r = run_cli("segment", os.path.join(abdomen_ct.DATA, "ct.nii.gz"), "--sphere-from-label", f"{lab}:{organ}",
                         "--truth", lab, "--out", out, *extra, check=False)
             assert r.returncode in (0, 6), r.stderr
             reps[organ, tag] = json.load(open(os.path.join(out, "report.json")))
             maps[organ, tag] = np.asarray(nib.load(os.path.join(out, "labels.nii.gz")).dataobj) != 0
-            said[organ, tag] = "the first run stands" in r.stderr
+            said[organ, tag] = ("its first run is kept" in r.stderr, "that run stands" in r.stderr)
     dice = {key: rep["objects"][0]["metrics"]["dice"] for key, rep in reps.items()}
-    print(f"kidney left: Dice {dice[3, 'auto']:.3f} (one run at 12: {dice[3, '12']:.3f}); "
-          f"gallbladder {dice[4, 'auto']:.3f} ({dice[4, '12']:.3f})")
-    for organ in (3, 4):
-        assert reps[organ, "12"]["passes"] == 1 and "finer_run_respaced" not in reps[organ, "12"]["config"]
-        assert reps[organ, "auto"]["config"]["mesh_resolution"] == 12
+    print({f"{organ} {tag}": round(d, 3) for (organ, tag), d in dice.items()})
+    for organ, tags in runs.items():
+        for tag in tags[1:]:
+            assert reps[organ, tag]["passes"] == 1 and "finer_run_respaced" not in reps[organ, tag]["config"]
     kidney = reps[3, "auto"]
     assert kidney["passes"] == 2 and kidney["config"]["refined_from_first_run"] is True
+    assert kidney["config"]["mesh_resolution"] == 12
     assert kidney["config"]["finer_run_respaced"] is True and kidney["config"]["first_run_stands"] is False
+    assert "leaker_run" not in kidney["config"]
     assert dice[3, "auto"] >= 0.85 and dice[3, "auto"] >= dice[3, "12"] + 0.03
-    gall = reps[4, "auto"]
-    assert said == {(3, "auto"): False, (3, "12"): False, (4, "auto"): True, (4, "12"): False}
-    assert gall["passes"] == 2 and gall["config"]["first_run_stands"] is True
-    assert gall["steps"] == reps[4, "12"]["steps"] < gall["steps_all_passes"]
-    assert gall["config"]["finer_run_respaced"] is False and gall["config"]["refined_from_first_run"] is False
-    left = gall["config"]["finer_run_left_reach"]
-    assert left["volume_ml"] > left["reach_ml"] > 0
-    assert int((maps[4, "auto"] != maps[4, "12"]).sum()) == 0 and int(maps[4, "auto"].sum()) > 0
+    assert said[3, "auto"] == (False, False)
+    for organ, stands in ((4, "6"), (10, "12")):
+        rep = reps[organ, "auto"]
+        cfg = rep["config"]
+        assert rep["passes"] == 3 and said[organ, "auto"] == (True, stands == "6")
+        assert cfg["finer_run_respaced"] is False and cfg["refined_from_first_run"] is False
+        left = cfg["finer_run_left_reach"]
+        assert left["volume_ml"] > left["reach_ml"] > 0
+        leaker = cfg["leaker_run"]
+        assert leaker["mesh_resolution"] == 6 and leaker["stands"] is (stands == "6")
+        assert leaker["voxels"] == int(maps[organ, "6"].sum()) and leaker["first_run_voxels"] == int(maps[organ, "12"].sum())
+        assert (leaker["voxels"] < leaker["first_run_voxels"]) is (stands == "6")
+        assert cfg["first_run_stands"] is (stands == "12") and cfg["mesh_resolution"] == int(stands)
+        assert rep["steps"] == reps[organ, stands]["steps"] < rep["steps_all_passes"]
+        assert int((maps[organ, "auto"] != maps[organ, stands]).sum()) == 0 and int(maps[organ, "auto"].sum()) > 0
+    assert dice[4, "auto"] >= dice[4, "12"] + 0.1  # 0.352 -> 0.498 measured
 
 
 def test_liver_and_vena_cava_together_at_3mm_fig_6_5_share_no_voxel(tmp_path):
