@@ -962,6 +962,8 @@ ffseg_tools::Json make_report(int argc, char** argv, const SegmentRequest& rq, c
       o.set("respaced_steps", run.respaced_steps[k]);
       if (rq.params.target_mode != FFSEG_TARGET_BINARY) o.set("grows_freely", run.grows_freely[k] != 0);
     }
+    // refinement_reach.h: its re-spaced pass left its first run's reach.
+    if (run.leaker_voxels > 0) o.set("leak_suspected", true);
     if (run.start_from_coarse) {
       o.set("kept_first_run_surface", run.from_coarse[k] != 0);
       o.set("first_run_voxels", run.coarse_voxels[k]);  // the order of placement: larger first
@@ -1146,6 +1148,24 @@ bool warn_stalls(const SegmentRequest& rq, const EngineRun& run) {
                  out ? "stops short of" : "overshoots", kExitStalled);
   }
   return any;
+}
+
+// An object whose re-spaced pass left its first run's reach (the result
+// is the smaller of its first run and its run at kLeakerResolution,
+// refinement_reach.h): its grey level goes on past where its mesh rested,
+// so the result may hold part of a neighbour of that grey level. A
+// warning on stderr, also with --quiet; the outputs are a segmentation
+// (exit status unchanged).
+void warn_leak(const SegmentRequest& rq, const EngineRun& run) {
+  if (run.leaker_voxels == 0) return;
+  const uint64_t first = run.coarse_voxels[0];
+  std::fprintf(stderr,
+               "ffseg: warning: object 1 (%s): its grey level goes on past the surface it rested at (re-spaced, it "
+               "grew past its first run's reach), so it may hold part of a neighbour of that grey level; of its run "
+               "at mesh resolution %u (%llu voxels) and its run at %u (%llu voxels) the one at %u stands "
+               "(report.json: leak_suspected)\n",
+               rq.names[0].c_str(), kFirstResolution, (unsigned long long)first, kLeakerResolution,
+               (unsigned long long)run.leaker_voxels, run.leaker_run_stands ? kLeakerResolution : kFirstResolution);
 }
 
 // A grey-level object whose mesh grew freely by the automatic rule (its
@@ -1387,6 +1407,7 @@ int cmd_segment(int argc, char** argv) {
   move_into_place(rq, &tmp, &sides);
   print_summary(rq, run, res, rep, shared_voxels);
   note_free_growth(rq, run);
+  warn_leak(rq, run);
   return warn_stalls(rq, run) ? kExitStalled : kExitOk;
 }
 
